@@ -1,0 +1,12 @@
+//! sinscal: calibration of strapdown inertial navigation systems with
+//! ring-laser gyros.
+//!
+//! The library is organised by what each module owns (see
+//! `docs/ARCHITECTURE.md`): `nav` (Earth model, attitude algebra,
+//! strapdown), `model` (the 24-parameter error model and the extra effects),
+//! `sim` (schemes and record generation), `io` (run files, metadata, truth).
+
+pub mod io;
+pub mod record;
+
+pub use record::Record;
