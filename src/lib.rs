@@ -7,6 +7,8 @@
 //! `sim` (schemes and record generation), `io` (run files, metadata, truth).
 
 pub mod io;
+pub mod model;
+pub mod nav;
 pub mod record;
 
 pub use record::Record;

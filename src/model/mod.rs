@@ -1,0 +1,12 @@
+//! The sensor error model of SPEC §2 (24 parameters, canonical names and
+//! units, generation and exact compensation) and the effects of SPEC §3
+//! that lie outside it.
+
+pub mod effects;
+pub mod params;
+pub mod units;
+
+pub use effects::Effects;
+pub use params::{ErrorParameters, Group, ParameterInfo, N_PARAMS, PARAMETERS};
+pub mod error_model;
+pub use error_model::Compensator;
