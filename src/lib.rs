@@ -9,6 +9,7 @@
 pub mod io;
 pub mod model;
 pub mod nav;
+pub mod sim;
 pub mod record;
 
 pub use record::Record;

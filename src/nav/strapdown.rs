@@ -7,14 +7,20 @@
 //! - attitude: C_b^n(k) = exp(−[ζ×]) C_b^n(k−1) exp([φ×]) with the body
 //!   rotation vector φ = Δθ_k + (1/12) Δθ_{k−1} × Δθ_k (two-sample coning)
 //!   and the navigation-frame rotation ζ = ω_ie^n Δt;
-//! - velocity: Δv_sf^n = (I − ½[ζ×]) C_b^n(k−1) (Δv_k + ½ Δθ_k × Δv_k + δv_scul)
-//!   with the two-sample sculling term
+//! - velocity: Δv_sf^n = (I − ½[ζ×]) C_b^n(k−1) (Δv_k + δv_rot + δv_scul)
+//!   with the rotation term δv_rot = ½ Δθ_k × Δv_k + (1/6) Δθ_k × (Δθ_k × Δv_k)
+//!   and the two-sample sculling term
 //!   δv_scul = (1/12)(Δθ_{k−1} × Δv_k + Δv_{k−1} × Δθ_k), then
 //!   v^n(k) = v^n(k−1) + Δv_sf^n + (g^n − 2 ω_ie^n × v^n(k−1)) Δt.
 //!
 //! The ½[ζ×] term is what keeps a resting unit at rest: the body rotation
 //! term ½Δθ×Δv contains the Earth rate the unit senses, and only the
-//! matching navigation-frame term cancels it (FIELD-NOTES 1).
+//! matching navigation-frame term cancels it (FIELD-NOTES 1). The
+//! second-order rotation term matters on a turntable: for a steady turn at
+//! rate ω under gravity, dropping it leaves −(1/6)[ω×]²f Δt³ per record,
+//! which the sculling term (−1/12) does not cancel but doubles; together
+//! with it the error vanishes at third order. At 10°/s and 100 Hz that is
+//! 4e-5 m/s per quarter turn without it.
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
@@ -85,7 +91,8 @@ impl Strapdown {
 
         // Velocity first: it uses the attitude at the start of the record.
         let sculling = (dtheta_prev.cross(&dv) + dv_prev.cross(&dtheta)) / 12.0;
-        let dv_b = dv + 0.5 * dtheta.cross(&dv) + sculling;
+        let rot = dtheta.cross(&dv);
+        let dv_b = dv + 0.5 * rot + dtheta.cross(&rot) / 6.0 + sculling;
         let dv_n_start = c_prev * dv_b;
         let dv_sf_n = dv_n_start - 0.5 * zeta.cross(&dv_n_start);
         let coriolis = 2.0 * self.omega_ie_n.cross(&self.v_n);

@@ -1,0 +1,12 @@
+//! Simulation of calibration runs: rotation schemes (SPEC §4), the true
+//! trajectory of a unit on its turntable, and records generated from it
+//! with the error model, effects and noise (SPEC §2–3).
+
+pub mod generator;
+pub mod profile;
+pub mod scheme;
+pub mod trajectory;
+
+pub use generator::{simulate, Noise, SimConfig, SimError, Simulator};
+pub use scheme::{Scheme, SchemeRef};
+pub use trajectory::Trajectory;
