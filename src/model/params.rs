@@ -227,6 +227,18 @@ impl ErrorParameters {
     }
 }
 
+impl ErrorParameters {
+    /// A random truth: each parameter uniform in ±2× its paper magnitude,
+    /// so signs are mixed (`sinscal simulate --params random`).
+    pub fn random(rng: &mut impl rand::Rng) -> Self {
+        let mut si = [0.0; N_PARAMS];
+        for (v, info) in si.iter_mut().zip(PARAMETERS.iter()) {
+            *v = rng.gen_range(-2.0..=2.0) * paper_magnitude(info.group);
+        }
+        ErrorParameters { si }
+    }
+}
+
 /// The magnitude of each family in the seed paper's Table 1, in SI.
 pub fn paper_magnitude(group: Group) -> f64 {
     match group {
