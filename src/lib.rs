@@ -6,6 +6,7 @@
 //! strapdown), `model` (the 24-parameter error model and the extra effects),
 //! `sim` (schemes and record generation), `io` (run files, metadata, truth).
 
+pub mod calib;
 pub mod io;
 pub mod model;
 pub mod nav;

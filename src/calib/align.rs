@@ -1,0 +1,79 @@
+//! Self-alignment at rest: coarse (analytic, from the mean specific force
+//! and angular rate) then fine (a zero-velocity Kalman filter over the
+//! first dwell). Works at any heading and any tilt that leaves the Earth
+//! rate's horizontal part measurable (everywhere but near the poles).
+
+use nalgebra::{Matrix3, Vector3};
+
+use super::filter::{error_dynamics, SystematicFilter};
+use super::CalibError;
+use crate::nav::{Site, Strapdown};
+use crate::record::Record;
+
+/// C_b^n from the mean specific force f^b and angular rate ω^b at rest:
+/// up is along f, east along ω × f, north completes the frame (ENU).
+pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>, CalibError> {
+    let up = f_b.try_normalize(1e-9).ok_or_else(|| {
+        CalibError::Unusable("no specific force in the first dwell: cannot level".into())
+    })?;
+    let east = omega_b.cross(&up).try_normalize(1e-15).ok_or_else(|| {
+        CalibError::Unusable("no horizontal Earth rate in the first dwell: cannot find north".into())
+    })?;
+    let north = up.cross(&east);
+    // Rows of C_b^n are the navigation axes in body coordinates.
+    Ok(Matrix3::from_rows(&[east.transpose(), north.transpose(), up.transpose()]))
+}
+
+/// Fine alignment: navigates the (compensated) records of the first dwell
+/// from the coarse attitude with zero-velocity updates every `window`
+/// records, and returns the attitude at the dwell's end — which, the unit
+/// resting, is its attitude throughout the dwell.
+pub fn fine(
+    site: &Site,
+    c_b_n: &Matrix3<f64>,
+    records: impl Iterator<Item = Record>,
+    t0: f64,
+    dt: f64,
+    window: usize,
+    arw: f64,
+    vrw: f64,
+) -> Result<Matrix3<f64>, CalibError> {
+    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
+    let mut p0 = nalgebra::Matrix6::zeros();
+    // Coarse tilt is good to a milliradian, heading to some degrees.
+    for (i, s) in [1e-2, 1e-2, 0.1, 1e-3, 1e-3, 1e-3].iter().enumerate() {
+        p0[(i, i)] = s * s;
+    }
+    let mut kf = SystematicFilter::new(f, &p0, &[], arw, vrw, 1e-6);
+    let mut nav = Strapdown::new(site, c_b_n, t0, dt);
+    let mut n = 0;
+    for r in records {
+        nav.update(&r);
+        n += 1;
+        if n % window == 0 {
+            kf.propagate(window as f64 * dt);
+            kf.update_zero_velocity(&nav.v_n)?;
+            let (phi, dv) = kf.take_navigation_errors();
+            nav.correct(&phi, &dv, &Vector3::zeros());
+        }
+    }
+    Ok(nav.c_b_n())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::nav::attitude::{attitude_difference_n, rotvec_to_dcm};
+
+    #[test]
+    fn coarse_alignment_recovers_a_tilted_turned_attitude() {
+        let site = Site::new(28.2215, 112.9924, 50.0);
+        for heading_deg in [0.0, 73.0, 181.0, -95.0] {
+            let c = rotvec_to_dcm(&Vector3::new(0.06, -0.08, f64::to_radians(heading_deg)));
+            let f_b = c.transpose() * site.f_rest_n();
+            let w_b = c.transpose() * site.omega_ie_n();
+            let est = coarse(&f_b, &w_b).unwrap();
+            assert!(attitude_difference_n(&est, &c).norm() < 1e-12, "heading {heading_deg}");
+        }
+    }
+}

@@ -1,0 +1,543 @@
+//! The calibration driver: a pre-scan that finds the dwells and the noise,
+//! then passes of alignment and the systematic filter, each pass
+//! compensating the data with the estimate of the one before
+//! (FIELD-NOTES 2, 4), until the correction is small against its σ.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
+use serde::{Deserialize, Serialize};
+
+use super::align;
+use super::filter::{error_dynamics, Innovation, SystematicFilter};
+use super::result::{
+    AlignmentReport, CalibrationResult, Convergence, DwellResidual, ParameterEstimate,
+};
+use super::segment::{DetectOptions, RunSegment, SegmentKind, Segmenter};
+use super::sensitivity::base_columns;
+use super::{CalibError, EstimatorKind, Progress, RecordSource, RunInfo};
+use crate::model::params::paper_magnitude;
+use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
+use crate::model::{ErrorParameters, Group, N_PARAMS, PARAMETERS};
+use crate::nav::attitude::euler_from_dcm;
+use crate::nav::Strapdown;
+use crate::record::Record;
+
+/// Sensor noise densities used as process noise.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NoiseDensity {
+    pub gyro_arw_deg_rt_h: f64,
+    pub accel_vrw_ug_rt_hz: f64,
+}
+
+/// Tunable parts of the estimator. The defaults are what the accuracy
+/// tests and benchmarks use.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct EstimateOptions {
+    pub estimator: EstimatorKind,
+    /// Passes with feedback into the compensation, at most.
+    pub max_passes: u32,
+    /// Stop once every parameter's correction is below this many σ.
+    pub converged_sigma: f64,
+    /// Propagation window and zero-velocity update interval, s.
+    pub window_s: f64,
+    /// σ of a zero-velocity observation, m/s: what the unit may really
+    /// move at rest (table vibration), not a tuning knob for the noise.
+    pub zupt_sigma_mps: f64,
+    pub detect: DetectOptions,
+    /// Noise densities; `None` measures them from the dwells' increments.
+    pub noise: Option<NoiseDensity>,
+    /// Prior 1-σ of each parameter family as a multiple of the seed
+    /// paper's magnitude.
+    pub prior_scale: f64,
+    /// Run the least-squares cross-check after the filter.
+    pub cross_check: bool,
+    /// Most points in the convergence history.
+    pub history_points: usize,
+}
+
+impl Default for EstimateOptions {
+    fn default() -> Self {
+        EstimateOptions {
+            estimator: EstimatorKind::Kf,
+            max_passes: 5,
+            converged_sigma: 0.05,
+            window_s: 1.0,
+            zupt_sigma_mps: 1e-6,
+            detect: DetectOptions::default(),
+            noise: None,
+            prior_scale: 4.0,
+            cross_check: true,
+            history_points: 2000,
+        }
+    }
+}
+
+/// What the pre-scan learns about a run.
+#[derive(Clone, Debug)]
+pub struct Prescan {
+    pub segments: Vec<RunSegment>,
+    pub n_records: u64,
+    /// Start of the first record's interval.
+    pub t_begin: f64,
+    pub t_end: f64,
+    /// Measured noise, rad/√s and m/s/√s.
+    pub arw: f64,
+    pub vrw: f64,
+}
+
+impl Prescan {
+    pub fn dwells(&self) -> impl Iterator<Item = &RunSegment> {
+        self.segments.iter().filter(|s| s.kind == SegmentKind::Dwell)
+    }
+}
+
+/// Lowest noise densities used, so that a noise-free run still gives a
+/// well-posed filter: 1e-5 deg/√h and 0.1 µg/√Hz (thirty and fifty times
+/// below the quietest navigation-grade units).
+const MIN_ARW: f64 = 1e-5 * DEG_PER_RT_H;
+const MIN_VRW: f64 = 0.1 * UG_PER_RT_HZ;
+
+/// One streaming read: segmentation and noise from first differences of
+/// records in still blocks (at rest the true increments are constant, so
+/// a difference is two draws of the white noise).
+pub fn prescan(
+    source: &dyn RecordSource,
+    run: &RunInfo,
+    detect: &DetectOptions,
+    cancel: &AtomicBool,
+) -> Result<Prescan, CalibError> {
+    let rate = run.sample_rate_hz;
+    let dt = 1.0 / rate;
+    let g = run.site.gravity();
+    let mut seg = Segmenter::new(*detect, rate, g);
+    let block = ((detect.block_s * rate).round() as usize).max(2);
+    let (mut n, mut t_begin, mut t_end) = (0u64, f64::NAN, f64::NAN);
+    let mut prev: Option<Record> = None;
+    let (mut blk_sum_th, mut blk_sum_v, mut blk_n) = (Vector3::zeros(), Vector3::zeros(), 0usize);
+    let (mut blk_d2_th, mut blk_d2_v) = (0.0, 0.0);
+    let (mut d2_th, mut d2_v, mut d_n) = (0.0, 0.0, 0usize);
+    for r in source.records()? {
+        let r = r?;
+        if n == 0 {
+            t_begin = r.t - dt;
+        }
+        t_end = r.t;
+        n += 1;
+        if n % 65_536 == 0 && cancel.load(Ordering::Relaxed) {
+            return Err(CalibError::Cancelled);
+        }
+        seg.push(&r);
+        let th = Vector3::from(r.dtheta);
+        let v = Vector3::from(r.dv);
+        if let Some(p) = prev {
+            if blk_n > 0 {
+                blk_d2_th += (th - Vector3::from(p.dtheta)).norm_squared();
+                blk_d2_v += (v - Vector3::from(p.dv)).norm_squared();
+            }
+        }
+        blk_sum_th += th;
+        blk_sum_v += v;
+        blk_n += 1;
+        if blk_n == block {
+            let span = blk_n as f64 * dt;
+            let still = (blk_sum_th / span).norm() < detect.rate_threshold_dps.to_radians()
+                && ((blk_sum_v / span).norm() - g).abs() < detect.force_threshold_mps2;
+            if still {
+                d2_th += blk_d2_th;
+                d2_v += blk_d2_v;
+                d_n += blk_n - 1;
+            }
+            (blk_sum_th, blk_sum_v, blk_n, blk_d2_th, blk_d2_v) =
+                (Vector3::zeros(), Vector3::zeros(), 0, 0.0, 0.0);
+        }
+        prev = Some(r);
+    }
+    if n == 0 {
+        return Err(CalibError::Unusable("the run holds no records".into()));
+    }
+    // E|Δ(noise)|² = 2·3·σ² per record; σ = density·√Δt.
+    let (arw, vrw) = if d_n > 0 {
+        (
+            (d2_th / (6.0 * d_n as f64) / dt).sqrt(),
+            (d2_v / (6.0 * d_n as f64) / dt).sqrt(),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    Ok(Prescan {
+        segments: seg.finish(),
+        n_records: n,
+        t_begin,
+        t_end,
+        arw,
+        vrw,
+    })
+}
+
+/// Sums over one dwell's zero-velocity innovations, from which the
+/// post-fit residual ȳ − M p̂ follows for the final estimate p̂ without
+/// storing the innovations: Σ(y_i − m_i·p)² = Σy_i² − 2 p·Σy_i m_i + pᵀ(Σ m_i m_iᵀ)p.
+struct DwellAccumulator {
+    n: usize,
+    sum_y: Vector3<f64>,
+    sum_y2: Vector3<f64>,
+    sum_m: DMatrix<f64>,
+    sum_ym: DMatrix<f64>,
+    sum_mm: [DMatrix<f64>; 3],
+}
+
+impl DwellAccumulator {
+    fn new(n_p: usize) -> Self {
+        DwellAccumulator {
+            n: 0,
+            sum_y: Vector3::zeros(),
+            sum_y2: Vector3::zeros(),
+            sum_m: DMatrix::zeros(3, n_p),
+            sum_ym: DMatrix::zeros(3, n_p),
+            sum_mm: std::array::from_fn(|_| DMatrix::zeros(n_p, n_p)),
+        }
+    }
+
+    fn add(&mut self, innov: &Innovation) {
+        let y = innov.y_bar;
+        self.n += 1;
+        self.sum_y += y;
+        self.sum_y2 += y.component_mul(&y);
+        self.sum_m += &innov.m;
+        for i in 0..3 {
+            let col = innov.m.row(i).transpose();
+            for k in 0..col.len() {
+                self.sum_ym[(i, k)] += y[i] * col[k];
+            }
+            self.sum_mm[i].ger(1.0, &col, &col, 1.0);
+        }
+    }
+
+    /// RMS and mean of the post-fit innovations per axis.
+    fn post_fit(&self, p: &DVector<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let n = self.n.max(1) as f64;
+        let mp = &self.sum_m * p;
+        let mut rms = Vector3::zeros();
+        let mut mean = Vector3::zeros();
+        for i in 0..3 {
+            let cross = self.sum_ym.row(i).dot(&p.transpose());
+            let quad = (p.transpose() * &self.sum_mm[i] * p)[(0, 0)];
+            rms[i] = ((self.sum_y2[i] - 2.0 * cross + quad) / n).max(0.0).sqrt();
+            mean[i] = (self.sum_y[i] - mp[i]) / n;
+        }
+        (rms, mean)
+    }
+}
+
+/// The result of one filter pass.
+struct Pass {
+    /// Residual parameter estimate, SI.
+    delta: Vec<f64>,
+    sigma: Vec<f64>,
+    c_b_n0: Matrix3<f64>,
+    history: Convergence,
+    dwell_residuals: Vec<DwellResidual>,
+}
+
+/// Prior 1-σ of the 24 parameters, SI.
+pub fn prior_sigma(scale: f64) -> Vec<f64> {
+    PARAMETERS
+        .iter()
+        .map(|p| scale * paper_magnitude(p.group))
+        .collect()
+}
+
+/// Index of the dwell holding time t, if any.
+fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
+    let i = segments.partition_point(|s| s.t_end < t);
+    segments
+        .get(i)
+        .filter(|s| s.kind == SegmentKind::Dwell && s.t_start <= t && t <= s.t_end)
+        .map(|_| i)
+}
+
+struct PassContext<'a> {
+    source: &'a dyn RecordSource,
+    run: &'a RunInfo,
+    opts: &'a EstimateOptions,
+    scan: &'a Prescan,
+    arw: f64,
+    vrw: f64,
+    cancel: &'a AtomicBool,
+}
+
+fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
+    let first = scan.segments.first().ok_or_else(|| CalibError::Unusable("no segments".into()))?;
+    if first.kind != SegmentKind::Dwell {
+        return Err(CalibError::Unusable(format!(
+            "the run must begin at rest: it moves from t = {:.2} s (no dwell of at least {} s first)",
+            first.t_start, scan_min_dwell(scan)
+        )));
+    }
+    Ok(first)
+}
+
+fn scan_min_dwell(_scan: &Prescan) -> f64 {
+    DetectOptions::default().min_dwell_s
+}
+
+/// One pass of alignment and the filter over the records compensated with
+/// `params`.
+fn kf_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    keep_history: bool,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
+    let run = ctx.run;
+    let site = &run.site;
+    let dt = 1.0 / run.sample_rate_hz;
+    let comp = params.compensator();
+    let dwell1 = first_dwell(ctx.scan)?;
+
+    // Coarse alignment from the first dwell's compensated means.
+    let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
+    let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
+    let c_coarse = align::coarse(&f_b, &w_b)?;
+    let window = ((ctx.opts.window_s * run.sample_rate_hz).round() as usize).max(1);
+    let t_align_end = dwell1.t_end;
+    let align_records = ctx
+        .source
+        .records()?
+        .map_while(|r| r.ok())
+        .take_while(|r| r.t <= t_align_end + 1e-9)
+        .map(|r| comp.record(&r, dt));
+    let c_b_n0 = align::fine(site, &c_coarse, align_records, ctx.scan.t_begin, dt, window, ctx.arw, ctx.vrw)?;
+
+    // The systematic filter from the run's start.
+    let prior = prior_sigma(ctx.opts.prior_scale);
+    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
+    let mut p0 = Matrix6::zeros();
+    // Attitude left after alignment is what the residual biases imply:
+    // tilt ≈ δb_a/g, heading ≈ δb_g,E/ω_ie,N; generous bounds on both.
+    let tilt = 3.0 * prior[9] / site.gravity();
+    let heading = (3.0 * prior[0] / (site.omega_ie_n().y)).min(0.1);
+    for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
+        p0[(i, i)] = s * s;
+    }
+    let mut kf = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, ctx.opts.zupt_sigma_mps);
+    let mut nav = Strapdown::new(site, &c_b_n0, ctx.scan.t_begin, dt);
+    let mut c_prev = nav.c_b_n();
+
+    let n_windows = (ctx.scan.n_records as usize).div_ceil(window).max(1);
+    let every = n_windows.div_ceil(ctx.opts.history_points.max(1)).max(1);
+    let mut history = Convergence {
+        names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
+        ..Default::default()
+    };
+    let n_segments = ctx.scan.segments.len();
+    let mut dwell_acc: Vec<DwellAccumulator> =
+        (0..n_segments).map(|_| DwellAccumulator::new(N_PARAMS)).collect();
+
+    let mut in_window = 0usize;
+    let mut t_ws = ctx.scan.t_begin;
+    let mut w_index = 0usize;
+    let mut count = 0u64;
+    for r in ctx.source.records()? {
+        let r = comp.record(&r?, dt);
+        nav.update(&r);
+        let c_now = nav.c_b_n();
+        let c_mid = (c_prev + c_now) * 0.5;
+        c_prev = c_now;
+        let tau = r.t - 0.5 * dt - t_ws;
+        base_columns(
+            &c_mid,
+            &Vector3::from(r.dtheta),
+            &Vector3::from(r.dv),
+            dt,
+            |i, rows, col| kf.add_column(i, rows, &col, tau),
+        );
+        in_window += 1;
+        count += 1;
+        if in_window == window || count == ctx.scan.n_records {
+            let t_we = r.t;
+            kf.propagate(t_we - t_ws);
+            let d0 = dwell_at(&ctx.scan.segments, t_ws);
+            if d0.is_some() && d0 == dwell_at(&ctx.scan.segments, t_we) {
+                let innov = kf.update_zero_velocity(&nav.v_n)?;
+                if let Some(d) = d0 {
+                    dwell_acc[d].add(&innov);
+                }
+                let (phi, dv) = kf.take_navigation_errors();
+                nav.correct(&phi, &dv, &Vector3::zeros());
+                c_prev = nav.c_b_n();
+            }
+            if keep_history && (w_index % every == 0 || count == ctx.scan.n_records) {
+                let (d, s) = kf.parameters()?;
+                history.t.push(t_we);
+                history.value.push(
+                    (0..N_PARAMS)
+                        .map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit)
+                        .collect(),
+                );
+                history.sigma.push((0..N_PARAMS).map(|i| s[i] / PARAMETERS[i].si_per_unit).collect());
+            }
+            w_index += 1;
+            in_window = 0;
+            t_ws = t_we;
+            if w_index % 64 == 0 {
+                if ctx.cancel.load(Ordering::Relaxed) {
+                    return Err(CalibError::Cancelled);
+                }
+                progress(count as f64 / ctx.scan.n_records as f64);
+            }
+        }
+    }
+    let (delta, sigma) = kf.parameters()?;
+    if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {
+        return Err(CalibError::Numerical("the filter diverged".into()));
+    }
+    let p_hat = kf.scaled_estimate()?;
+    let mut dwell_residuals = Vec::new();
+    for (i, seg) in ctx.scan.segments.iter().enumerate() {
+        if seg.kind == SegmentKind::Dwell {
+            let (rms, mean) = dwell_acc[i].post_fit(&p_hat);
+            dwell_residuals.push(DwellResidual {
+                dwell: dwell_residuals.len() + 1,
+                t_start: seg.t_start,
+                t_end: seg.t_end,
+                rms_mps: rms.into(),
+                drift_mps2: (mean / ctx.opts.window_s).into(),
+            });
+        }
+    }
+    Ok(Pass {
+        delta,
+        sigma,
+        c_b_n0,
+        history,
+        dwell_residuals,
+    })
+}
+
+/// Calibrates a run: the one entry point the CLI and the server call.
+pub fn estimate(
+    source: &dyn RecordSource,
+    run: &RunInfo,
+    opts: &EstimateOptions,
+    progress: &mut dyn FnMut(Progress),
+    cancel: &AtomicBool,
+) -> Result<CalibrationResult, CalibError> {
+    if !(run.sample_rate_hz.is_finite() && run.sample_rate_hz > 0.0) {
+        return Err(CalibError::Unusable(format!("sample rate {} Hz", run.sample_rate_hz)));
+    }
+    progress(Progress {
+        fraction: 0.0,
+        stage: "scanning the run".into(),
+    });
+    let scan = prescan(source, run, &opts.detect, cancel)?;
+    let (arw, vrw) = match opts.noise {
+        Some(n) => (n.gyro_arw_deg_rt_h * DEG_PER_RT_H, n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ),
+        None => (scan.arw, scan.vrw),
+    };
+    let ctx = PassContext {
+        source,
+        run,
+        opts,
+        scan: &scan,
+        arw: arw.max(MIN_ARW),
+        vrw: vrw.max(MIN_VRW),
+        cancel,
+    };
+    let mut params = ErrorParameters::zero();
+    let max_passes = opts.max_passes.max(1);
+    let mut last: Option<Pass> = None;
+    let mut passes = 0;
+    for pass in 1..=max_passes {
+        passes = pass;
+        let base = 0.1 + 0.8 * (pass - 1) as f64 / max_passes as f64;
+        let span = 0.8 / max_passes as f64;
+        let stage = format!("filter pass {pass} of at most {max_passes}");
+        let mut report = |f: f64| {
+            progress(Progress {
+                fraction: base + span * f,
+                stage: stage.clone(),
+            })
+        };
+        let p = kf_pass(&ctx, &params, true, &mut report)?;
+        let mut delta = ErrorParameters::zero();
+        delta.si.copy_from_slice(&p.delta);
+        params = params.compose(&delta);
+        let worst = p
+            .delta
+            .iter()
+            .zip(p.sigma.iter())
+            .map(|(d, s)| d.abs() / s)
+            .fold(0.0, f64::max);
+        last = Some(p);
+        if pass >= 2 && worst < opts.converged_sigma {
+            break;
+        }
+    }
+    let last = last.ok_or_else(|| CalibError::Numerical("no pass ran".into()))?;
+    progress(Progress {
+        fraction: 0.95,
+        stage: "reporting".into(),
+    });
+
+    let prior = prior_sigma(opts.prior_scale);
+    let mut warnings = Vec::new();
+    let mut parameters = std::collections::BTreeMap::new();
+    for (i, info) in PARAMETERS.iter().enumerate() {
+        let sigma = last.sigma[i];
+        if sigma > 0.5 * prior[i] {
+            warnings.push(format!(
+                "{} is poorly observable on this run's scheme: its σ is {:.0}% of the prior",
+                info.name,
+                100.0 * sigma / prior[i]
+            ));
+        }
+        parameters.insert(
+            info.name.to_string(),
+            ParameterEstimate {
+                value: params.canonical(i),
+                sigma: sigma / info.si_per_unit,
+                unit: info.unit.to_string(),
+            },
+        );
+    }
+    let n_dwells = scan.dwells().count();
+    if n_dwells < 10 {
+        warnings.push(format!("only {n_dwells} dwells found; the base model needs a multi-position scheme"));
+    }
+    let (roll, pitch, heading) = euler_from_dcm(&last.c_b_n0);
+    let dwell1 = first_dwell(&scan)?;
+    progress(Progress {
+        fraction: 1.0,
+        stage: "done".into(),
+    });
+    Ok(CalibrationResult {
+        estimator: "kf".into(),
+        model: "base-24".into(),
+        parameters,
+        effects: Default::default(),
+        warnings,
+        passes,
+        records: scan.n_records,
+        duration_s: scan.t_end - scan.t_begin,
+        alignment: AlignmentReport {
+            roll_deg: roll.to_degrees(),
+            pitch_deg: pitch.to_degrees(),
+            heading_deg: heading.to_degrees(),
+            duration_s: dwell1.t_end - dwell1.t_start,
+        },
+        noise_arw_deg_rt_h: ctx.arw / DEG_PER_RT_H,
+        noise_vrw_ug_rt_hz: ctx.vrw / UG_PER_RT_HZ,
+        segments: scan.segments.clone(),
+        dwell_residuals: last.dwell_residuals,
+        convergence: last.history,
+        cross_check: None,
+    })
+}
+
+/// Groups for reporting, in canonical order.
+pub fn group_of(i: usize) -> Group {
+    PARAMETERS[i].group
+}

@@ -1,0 +1,113 @@
+//! What a calibration produces (SPEC §5 result, and more).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::segment::RunSegment;
+
+/// One estimated parameter in its canonical unit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParameterEstimate {
+    pub value: f64,
+    /// The estimator's own 1-σ.
+    pub sigma: f64,
+    pub unit: String,
+}
+
+/// Estimates and σ over the run (final pass), decimated for plotting.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Convergence {
+    /// Parameter names, the columns of `value` and `sigma`.
+    pub names: Vec<String>,
+    /// Times, s.
+    pub t: Vec<f64>,
+    /// value[i][j]: parameter j at time t[i], canonical units.
+    pub value: Vec<Vec<f64>>,
+    pub sigma: Vec<Vec<f64>>,
+}
+
+/// The post-fit velocity residual of one dwell.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DwellResidual {
+    /// 1-based dwell number.
+    pub dwell: usize,
+    pub t_start: f64,
+    pub t_end: f64,
+    /// RMS of the zero-velocity innovations (E, N, U), m/s.
+    pub rms_mps: [f64; 3],
+    /// Velocity drift over the dwell left after the fit (E, N, U), m/s².
+    pub drift_mps2: [f64; 3],
+}
+
+/// Attitude found by the alignment (start of the first dwell).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct AlignmentReport {
+    pub roll_deg: f64,
+    pub pitch_deg: f64,
+    pub heading_deg: f64,
+    /// Seconds of data the alignment used.
+    pub duration_s: f64,
+}
+
+/// One parameter compared between the two estimators.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CrossCheckEntry {
+    pub name: String,
+    pub kf: f64,
+    pub lsq: f64,
+    pub lsq_sigma: f64,
+    /// |kf − lsq| / √(σ_kf² + σ_lsq²).
+    pub normalized_difference: f64,
+    pub flagged: bool,
+}
+
+/// The least-squares cross-check of a filter result.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CrossCheck {
+    pub method: String,
+    pub entries: Vec<CrossCheckEntry>,
+    /// Names of parameters whose estimates differ by more than 3 combined σ.
+    pub flagged: Vec<String>,
+}
+
+/// A calibration result. `parameters` is SPEC §5's; the rest tells how far
+/// to trust it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationResult {
+    /// `kf` (systematic Kalman filter) or `lsq` (velocity-error-rate least
+    /// squares).
+    pub estimator: String,
+    /// The error model: `base-24`, or `base-24+<effect>…` when effect
+    /// states were added.
+    pub model: String,
+    pub parameters: BTreeMap<String, ParameterEstimate>,
+    /// Parameters of effects outside the base model, when modelled.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub effects: BTreeMap<String, ParameterEstimate>,
+    pub warnings: Vec<String>,
+    pub passes: u32,
+    pub records: u64,
+    pub duration_s: f64,
+    pub alignment: AlignmentReport,
+    /// Noise densities the filter used (measured from the dwells unless
+    /// given): deg/√h and µg/√Hz.
+    pub noise_arw_deg_rt_h: f64,
+    pub noise_vrw_ug_rt_hz: f64,
+    pub segments: Vec<RunSegment>,
+    pub dwell_residuals: Vec<DwellResidual>,
+    pub convergence: Convergence,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cross_check: Option<CrossCheck>,
+}
+
+impl CalibrationResult {
+    /// Value of a parameter by canonical name.
+    pub fn value(&self, name: &str) -> Option<f64> {
+        self.parameters.get(name).map(|p| p.value)
+    }
+
+    pub fn sigma(&self, name: &str) -> Option<f64> {
+        self.parameters.get(name).map(|p| p.sigma)
+    }
+}
