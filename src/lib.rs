@@ -10,6 +10,7 @@ pub mod calib;
 pub mod io;
 pub mod model;
 pub mod nav;
+pub mod pipeline;
 pub mod sim;
 pub mod record;
 

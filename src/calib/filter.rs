@@ -30,6 +30,8 @@
 //! measurement that selects the velocity rows.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
+#[cfg(test)]
+use nalgebra::Matrix6xX;
 
 use super::sensitivity::Rows;
 use super::CalibError;
@@ -346,5 +348,75 @@ mod tests {
         // Velocity: q t + g² q t³/3 (attitude noise integrated through g).
         assert!((q[(3, 3)] - (1e-10 * t + 9.8 * 9.8 * 1e-10 * t.powi(3) / 3.0)).abs() < 1e-22);
         assert!((q[(0, 0)] - 1e-10 * t).abs() < 1e-24);
+    }
+
+    /// The filter on data drawn from its own linear model: every
+    /// parameter's error over many trials must be as large as its σ says.
+    #[test]
+    fn estimates_are_consistent_on_the_linear_model() {
+        use rand::{Rng, SeedableRng};
+        use rand_distr::StandardNormal;
+        let window = 1.0;
+        let f = error_dynamics(&Vector3::new(0.0, 6.4e-5, 3.4e-5), &Vector3::new(0.0, 0.0, 9.79));
+        let (arw, vrw) = (8.7e-8, 4.9e-5);
+        let mut qc = Matrix6::zeros();
+        for i in 0..3 {
+            qc[(i, i)] = arw * arw;
+            qc[(i + 3, i + 3)] = vrw * vrw;
+        }
+        let a = transition(&f, window);
+        let lq = process_noise(&f, &qc, window).cholesky().unwrap().l();
+        let n_p = 4;
+        let prior = vec![1e-3; n_p];
+        let mut p0 = Matrix6::zeros();
+        for i in 0..3 {
+            p0[(i, i)] = 1e-6;
+            p0[(i + 3, i + 3)] = 1e-8;
+        }
+        let trials = 30;
+        let mut z2 = vec![0.0; n_p];
+        for trial in 0..trials {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(trial);
+            let mut normal = || rng.sample::<f64, _>(StandardNormal);
+            let p_true: Vec<f64> = (0..n_p).map(|_| normal() * 1e-3).collect();
+            let mut x = Vector6::from_fn(|i, _| if i < 3 { 1e-3 } else { 1e-4 });
+            let mut kf = SystematicFilter::new(f, &p0, &prior, arw, vrw, 1e-6);
+            for k in 0..1500 {
+                // Each parameter drives a direction that changes every
+                // 300 s, like a multi-position scheme.
+                let phase = k / 300;
+                let mut b = Matrix6xX::zeros(n_p);
+                for j in 0..n_p {
+                    let ang = (phase * 7 + j * 3) as f64;
+                    let col = Vector3::new(ang.sin(), ang.cos(), (0.3 * ang).sin()) * 1e-2;
+                    let (rows, r0) = if j % 2 == 0 { (Rows::Attitude, 0) } else { (Rows::Velocity, 3) };
+                    kf.add_column(j, rows, &col, 0.5 * window);
+                    b.fixed_view_mut::<3, 1>(r0, j).copy_from(&col);
+                }
+                // The same single mid-window record the filter expands.
+                let fm = nalgebra::DMatrix::from_column_slice(6, 6, f.as_slice());
+                let bd = nalgebra::DMatrix::from_column_slice(6, n_p, b.as_slice());
+                let b_eff = &bd + &fm * &bd * (0.5 * window) + (&fm * &fm) * &bd * (0.125 * window * window);
+                let bp = b_eff * DVector::from_vec(p_true.clone());
+                let w = lq * Vector6::from_fn(|_, _| normal());
+                x = a * x + Vector6::from_column_slice(bp.as_slice()) + w;
+                kf.propagate(window);
+                let z = Vector3::new(x[3], x[4], x[5]) + Vector3::from_fn(|_, _| normal() * 1e-6);
+                kf.update_zero_velocity(&z).unwrap();
+                let (phi, dv) = kf.take_navigation_errors();
+                for i in 0..3 {
+                    x[i] -= phi[i];
+                    x[i + 3] -= dv[i];
+                }
+            }
+            let (d, s) = kf.parameters().unwrap();
+            for j in 0..n_p {
+                z2[j] += ((d[j] - p_true[j]) / s[j]).powi(2);
+            }
+        }
+        for (j, v) in z2.iter().enumerate() {
+            let rms = (v / trials as f64).sqrt();
+            assert!((0.7..1.3).contains(&rms), "parameter {j}: rms err/σ {rms}");
+        }
     }
 }
