@@ -16,9 +16,10 @@ fn main() {
     let truth = cfg.params;
     let t0 = std::time::Instant::now();
     let res = estimate(&SimSource(cfg), &RunInfo { site: Site::new(28.2215, 112.9924, 50.0), sample_rate_hz: 100.0 },
-        &EstimateOptions::default(), &mut |_| {}, &AtomicBool::new(false)).unwrap();
+        &EstimateOptions { estimator: if std::env::var("LSQ").is_ok() { sinscal::calib::EstimatorKind::Lsq } else { sinscal::calib::EstimatorKind::Kf }, ..EstimateOptions::default() }, &mut |_| {}, &AtomicBool::new(false)).unwrap();
     println!("noise {:.6} {:.4} dwells {}", res.noise_arw_deg_rt_h, res.noise_vrw_ug_rt_hz, res.dwell_residuals.len());
     println!("passes {} time {:.2}s warnings {:?}", res.passes, t0.elapsed().as_secs_f64(), res.warnings);
+    if let Some(c) = &res.cross_check { for e in &c.entries { println!("xc {:20} kf {:12.5} lsq {:12.5} lsq_sig {:9.5} nd {:5.2} lsq_z {:+6.2}", e.name, e.kf, e.lsq, e.lsq_sigma, e.normalized_difference, 0.0); } println!("flagged {:?}", c.flagged); }
     for (i, p) in PARAMETERS.iter().enumerate() {
         let e = &res.parameters[p.name];
         let err = e.value - truth.canonical(i);

@@ -282,6 +282,15 @@ impl SystematicFilter {
         (Vector3::new(x[0], x[1], x[2]), Vector3::new(x[3], x[4], x[5]))
     }
 
+    /// The sensitivity V accumulated since the last call (scaled
+    /// parameters), leaving V zero: with no updates in between, that is the
+    /// B of the whole stretch, which the least-squares cross-check needs.
+    pub fn take_sensitivity(&mut self) -> DMatrix<f64> {
+        let v = self.v.clone();
+        self.v.fill(0.0);
+        v
+    }
+
     /// The scaled parameter estimate J⁻¹ h.
     pub fn scaled_estimate(&self) -> Result<DVector<f64>, CalibError> {
         self.solve_information()

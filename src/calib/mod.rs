@@ -6,6 +6,7 @@
 pub mod align;
 pub mod estimate;
 pub mod filter;
+pub mod lsq;
 pub mod result;
 pub mod segment;
 pub mod sensitivity;
@@ -59,6 +60,15 @@ pub enum EstimatorKind {
     Kf,
     /// The velocity-error-rate least squares alone.
     Lsq,
+}
+
+impl EstimatorKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            EstimatorKind::Kf => "kf",
+            EstimatorKind::Lsq => "lsq",
+        }
+    }
 }
 
 /// Progress of a calibration, for the server's job records.
