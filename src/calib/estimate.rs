@@ -47,6 +47,12 @@ pub struct EstimateOptions {
     /// σ of a zero-velocity observation, m/s: what the unit may really
     /// move at rest (table vibration), not a tuning knob for the noise.
     pub zupt_sigma_mps: f64,
+    /// Also observe zero velocity while the unit turns. Right only when the
+    /// turntable's axes pass through the unit's reference point (as in
+    /// simulation); off by default, so off-centre tables and manual flips
+    /// are safe. With it the filter gains the rotations' accelerometer
+    /// information.
+    pub zupt_in_motion: bool,
     pub detect: DetectOptions,
     /// Noise densities; `None` measures them from the dwells' increments.
     pub noise: Option<NoiseDensity>,
@@ -67,6 +73,7 @@ impl Default for EstimateOptions {
             converged_sigma: 0.05,
             window_s: 1.0,
             zupt_sigma_mps: 1e-6,
+            zupt_in_motion: false,
             detect: DetectOptions::default(),
             noise: None,
             prior_scale: 4.0,
@@ -418,9 +425,12 @@ fn kf_pass(ctx: &PassContext, params: &ErrorParameters, progress: &mut dyn FnMut
 
     walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
         let d0 = dwell_at(&ctx.scan.segments, w.t_start);
-        if let Some(d) = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end)) {
+        let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
+        if dwell.is_some() || ctx.opts.zupt_in_motion {
             let innov = kf.update_zero_velocity(&w.nav.v_n)?;
-            dwell_acc[d].add(&innov);
+            if let Some(d) = dwell {
+                dwell_acc[d].add(&innov);
+            }
             let (phi, dv) = kf.take_navigation_errors();
             w.nav.correct(&phi, &dv, &Vector3::zeros());
             w.corrected = true;

@@ -7,6 +7,7 @@ pub mod align;
 pub mod estimate;
 pub mod filter;
 pub mod lsq;
+pub mod plan;
 pub mod result;
 pub mod segment;
 pub mod sensitivity;
