@@ -11,7 +11,7 @@ pub mod io;
 pub mod model;
 pub mod nav;
 pub mod pipeline;
-pub mod sim;
 pub mod record;
+pub mod sim;
 
 pub use record::Record;

@@ -12,14 +12,18 @@ use std::sync::atomic::AtomicBool;
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::{EstimateOptions, EstimatorKind, NoiseDensity};
 use sinscal::io::meta::{read_json, write_json, RunMetadata, Truth};
-use sinscal::pipeline::calibrate_file;
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
+use sinscal::pipeline::calibrate_file;
 use sinscal::sim::{Noise, SchemeRef, SimConfig};
 
 #[derive(Parser)]
-#[command(name = "sinscal", version, about = "Calibration of strapdown inertial navigation systems")]
+#[command(
+    name = "sinscal",
+    version,
+    about = "Calibration of strapdown inertial navigation systems"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -237,8 +241,10 @@ fn sidecar(run: &std::path::Path) -> PathBuf {
 
 fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
     let meta_path = a.meta.clone().unwrap_or_else(|| sidecar(&a.run));
-    let text = std::fs::read(&meta_path).with_context(|| format!("reading {}", meta_path.display()))?;
-    let meta = RunMetadata::from_json(&text).with_context(|| format!("in {}", meta_path.display()))?;
+    let text =
+        std::fs::read(&meta_path).with_context(|| format!("reading {}", meta_path.display()))?;
+    let meta =
+        RunMetadata::from_json(&text).with_context(|| format!("in {}", meta_path.display()))?;
     let opts = EstimateOptions {
         estimator: match a.estimator {
             EstimatorArg::Kf => EstimatorKind::Kf,
@@ -270,7 +276,9 @@ fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
 }
 
 fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
-    let scheme = scheme_ref(&a.scheme)?.resolve(a.dwell).map_err(anyhow::Error::msg)?;
+    let scheme = scheme_ref(&a.scheme)?
+        .resolve(a.dwell)
+        .map_err(anyhow::Error::msg)?;
     let input = PlanInput {
         scheme,
         site: Site::new(a.latitude, 0.0, 0.0),

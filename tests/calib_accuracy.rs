@@ -8,7 +8,9 @@ use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo};
+use sinscal::calib::{
+    estimate, CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo,
+};
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
@@ -30,7 +32,14 @@ fn bound(g: Group) -> f64 {
     }
 }
 
-fn config(scheme: &str, dwell: f64, rate: f64, params: ErrorParameters, attitude: [f64; 3], seed: u64) -> SimConfig {
+fn config(
+    scheme: &str,
+    dwell: f64,
+    rate: f64,
+    params: ErrorParameters,
+    attitude: [f64; 3],
+    seed: u64,
+) -> SimConfig {
     SimConfig {
         site: site(),
         sample_rate_hz: rate,
@@ -48,7 +57,14 @@ fn calibrate(cfg: &SimConfig, opts: &EstimateOptions) -> CalibrationResult {
         site: cfg.site,
         sample_rate_hz: cfg.sample_rate_hz,
     };
-    estimate(&SimSource(cfg.clone()), &run, opts, &mut |_| {}, &AtomicBool::new(false)).unwrap()
+    estimate(
+        &SimSource(cfg.clone()),
+        &run,
+        opts,
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap()
 }
 
 /// err/σ of every parameter, canonical order.
@@ -56,7 +72,9 @@ fn z_scores(res: &CalibrationResult, truth: &ErrorParameters) -> Vec<f64> {
     PARAMETERS
         .iter()
         .enumerate()
-        .map(|(i, p)| (res.parameters[p.name].value - truth.canonical(i)) / res.parameters[p.name].sigma)
+        .map(|(i, p)| {
+            (res.parameters[p.name].value - truth.canonical(i)) / res.parameters[p.name].sigma
+        })
         .collect()
 }
 
@@ -82,7 +100,13 @@ fn assert_within_table1(res: &CalibrationResult, truth: &ErrorParameters, what: 
             bound(p.group),
             err / sigma
         );
-        assert!(statistical, "{what}: {} error {err:.6} {} exceeds the Table 1 bound {}", p.name, p.unit, bound(p.group));
+        assert!(
+            statistical,
+            "{what}: {} error {err:.6} {} exceeds the Table 1 bound {}",
+            p.name,
+            p.unit,
+            bound(p.group)
+        );
     }
 }
 
@@ -92,8 +116,15 @@ fn reference_scenario_full_length_meets_table1_and_cross_check_agrees() {
     let cfg = config("ten-position-9+9", 600.0, 100.0, truth, [0.1, -0.1, 2.0], 1);
     let res = calibrate(&cfg, &EstimateOptions::default());
     assert_within_table1(&res, &truth, "reference, seed 1");
-    let check = res.cross_check.as_ref().expect("cross-check runs by default");
-    assert!(check.flagged.is_empty(), "cross-check flags {:?}", check.flagged);
+    let check = res
+        .cross_check
+        .as_ref()
+        .expect("cross-check runs by default");
+    assert!(
+        check.flagged.is_empty(),
+        "cross-check flags {:?}",
+        check.flagged
+    );
     assert_eq!(res.dwell_residuals.len(), 19, "19 dwells detected");
     assert!(res.warnings.is_empty(), "{:?}", res.warnings);
     // The measured noise is what was simulated.
@@ -142,8 +173,19 @@ fn paper_truth_five_seeds_within_table1() {
         ..EstimateOptions::default()
     };
     for seed in 11..16 {
-        let cfg = config("ten-position-9+9", 600.0, 100.0, truth, [0.1, -0.1, 2.0], seed);
-        assert_within_table1(&calibrate(&cfg, &opts), &truth, &format!("paper truth, seed {seed}"));
+        let cfg = config(
+            "ten-position-9+9",
+            600.0,
+            100.0,
+            truth,
+            [0.1, -0.1, 2.0],
+            seed,
+        );
+        assert_within_table1(
+            &calibrate(&cfg, &opts),
+            &truth,
+            &format!("paper truth, seed {seed}"),
+        );
     }
 }
 
@@ -156,13 +198,23 @@ fn random_truths_and_headings_within_table1() {
     };
     // Mixed signs up to 2× the paper's magnitudes; starts tilted up to 5°
     // and turned to any heading.
-    let starts = [[0.0, 0.0, 0.0], [3.0, -4.0, 137.0], [-5.0, 0.0, -100.0], [2.0, 2.0, 250.0], [0.0, 5.0, 45.0]];
+    let starts = [
+        [0.0, 0.0, 0.0],
+        [3.0, -4.0, 137.0],
+        [-5.0, 0.0, -100.0],
+        [2.0, 2.0, 250.0],
+        [0.0, 5.0, 45.0],
+    ];
     for (k, start) in starts.iter().enumerate() {
         let seed = 21 + k as u64;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let truth = ErrorParameters::random(&mut rng);
         let cfg = config("ten-position-9+9", 600.0, 100.0, truth, *start, seed);
-        assert_within_table1(&calibrate(&cfg, &opts), &truth, &format!("random truth, seed {seed}, start {start:?}"));
+        assert_within_table1(
+            &calibrate(&cfg, &opts),
+            &truth,
+            &format!("random truth, seed {seed}, start {start:?}"),
+        );
     }
 }
 
@@ -198,7 +250,14 @@ fn sigma_is_honest_over_twenty_seeds() {
     let mut count = vec![0usize; groups.len()];
     let truth = ErrorParameters::paper();
     for seed in 101..121 {
-        let cfg = config("ten-position-9+9", 300.0, 50.0, truth, [0.1, -0.1, 2.0], seed);
+        let cfg = config(
+            "ten-position-9+9",
+            300.0,
+            50.0,
+            truth,
+            [0.1, -0.1, 2.0],
+            seed,
+        );
         let z = z_scores(&calibrate(&cfg, &opts), &truth);
         for (i, p) in PARAMETERS.iter().enumerate() {
             let g = groups.iter().position(|g| *g == p.group).unwrap();
@@ -244,6 +303,10 @@ fn plan_agrees_with_independent_covariance_analysis() {
             Group::AccelQuad => (0.25, 0.28),
         };
         let s = p.parameters[info.name].sigma;
-        assert!(s > lo * 0.95 && s < hi * 1.05, "{}: planned σ {s} outside [{lo}, {hi}]", info.name);
+        assert!(
+            s > lo * 0.95 && s < hi * 1.05,
+            "{}: planned σ {s} outside [{lo}, {hi}]",
+            info.name
+        );
     }
 }

@@ -17,11 +17,31 @@ pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>
         CalibError::Unusable("no specific force in the first dwell: cannot level".into())
     })?;
     let east = omega_b.cross(&up).try_normalize(1e-15).ok_or_else(|| {
-        CalibError::Unusable("no horizontal Earth rate in the first dwell: cannot find north".into())
+        CalibError::Unusable(
+            "no horizontal Earth rate in the first dwell: cannot find north".into(),
+        )
     })?;
     let north = up.cross(&east);
     // Rows of C_b^n are the navigation axes in body coordinates.
-    Ok(Matrix3::from_rows(&[east.transpose(), north.transpose(), up.transpose()]))
+    Ok(Matrix3::from_rows(&[
+        east.transpose(),
+        north.transpose(),
+        up.transpose(),
+    ]))
+}
+
+/// How the fine alignment runs.
+#[derive(Clone, Copy, Debug)]
+pub struct FineAlignment {
+    /// Start of the first record's interval, s.
+    pub t0: f64,
+    /// Record interval, s.
+    pub dt: f64,
+    /// Records between zero-velocity updates.
+    pub window: usize,
+    /// Noise densities, rad/√s and m/s/√s.
+    pub arw: f64,
+    pub vrw: f64,
 }
 
 /// Fine alignment: navigates the (compensated) records of the first dwell
@@ -32,12 +52,15 @@ pub fn fine(
     site: &Site,
     c_b_n: &Matrix3<f64>,
     records: impl Iterator<Item = Record>,
-    t0: f64,
-    dt: f64,
-    window: usize,
-    arw: f64,
-    vrw: f64,
+    how: &FineAlignment,
 ) -> Result<Matrix3<f64>, CalibError> {
+    let FineAlignment {
+        t0,
+        dt,
+        window,
+        arw,
+        vrw,
+    } = *how;
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
     let mut p0 = nalgebra::Matrix6::zeros();
     // Coarse tilt is good to a milliradian, heading to some degrees.
@@ -73,7 +96,10 @@ mod tests {
             let f_b = c.transpose() * site.f_rest_n();
             let w_b = c.transpose() * site.omega_ie_n();
             let est = coarse(&f_b, &w_b).unwrap();
-            assert!(attitude_difference_n(&est, &c).norm() < 1e-12, "heading {heading_deg}");
+            assert!(
+                attitude_difference_n(&est, &c).norm() < 1e-12,
+                "heading {heading_deg}"
+            );
         }
     }
 }

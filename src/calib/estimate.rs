@@ -98,7 +98,9 @@ pub struct Prescan {
 
 impl Prescan {
     pub fn dwells(&self) -> impl Iterator<Item = &RunSegment> {
-        self.segments.iter().filter(|s| s.kind == SegmentKind::Dwell)
+        self.segments
+            .iter()
+            .filter(|s| s.kind == SegmentKind::Dwell)
     }
 }
 
@@ -287,7 +289,10 @@ impl PassContext<'_> {
 }
 
 pub(super) fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
-    let first = scan.segments.first().ok_or_else(|| CalibError::Unusable("no segments".into()))?;
+    let first = scan
+        .segments
+        .first()
+        .ok_or_else(|| CalibError::Unusable("no segments".into()))?;
     if first.kind != SegmentKind::Dwell {
         return Err(CalibError::Unusable(format!(
             "the run must begin at rest: it moves from t = {:.2} s (no dwell of at least {} s first)",
@@ -303,7 +308,10 @@ fn scan_min_dwell(_scan: &Prescan) -> f64 {
 
 /// The attitude at the run's start: coarse alignment from the first
 /// dwell's compensated means, then fine alignment over that dwell.
-pub(super) fn align_start(ctx: &PassContext, comp: &Compensator) -> Result<Matrix3<f64>, CalibError> {
+pub(super) fn align_start(
+    ctx: &PassContext,
+    comp: &Compensator,
+) -> Result<Matrix3<f64>, CalibError> {
     let dt = 1.0 / ctx.run.sample_rate_hz;
     let dwell1 = first_dwell(ctx.scan)?;
     let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
@@ -320,11 +328,13 @@ pub(super) fn align_start(ctx: &PassContext, comp: &Compensator) -> Result<Matri
         &ctx.run.site,
         &c_coarse,
         align_records,
-        ctx.scan.t_begin,
-        dt,
-        ctx.window(),
-        ctx.arw,
-        ctx.vrw,
+        &align::FineAlignment {
+            t0: ctx.scan.t_begin,
+            dt,
+            window: ctx.window(),
+            arw: ctx.arw,
+            vrw: ctx.vrw,
+        },
     )
 }
 
@@ -365,9 +375,13 @@ pub(super) fn walk(
         let c_mid = (c_prev + c_now) * 0.5;
         c_prev = c_now;
         let tau = r.t - 0.5 * dt - t_ws;
-        base_columns(&c_mid, &Vector3::from(r.dtheta), &Vector3::from(r.dv), dt, |i, rows, col| {
-            sens.add_column(i, rows, &col, tau)
-        });
+        base_columns(
+            &c_mid,
+            &Vector3::from(r.dtheta),
+            &Vector3::from(r.dv),
+            dt,
+            |i, rows, col| sens.add_column(i, rows, &col, tau),
+        );
         in_window += 1;
         count += 1;
         if in_window == window || count == ctx.scan.n_records {
@@ -399,7 +413,11 @@ pub(super) fn walk(
 
 /// One pass of alignment and the filter over the records compensated with
 /// `params`.
-fn kf_pass(ctx: &PassContext, params: &ErrorParameters, progress: &mut dyn FnMut(f64)) -> Result<Pass, CalibError> {
+fn kf_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
     let site = &ctx.run.site;
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
@@ -420,8 +438,9 @@ fn kf_pass(ctx: &PassContext, params: &ErrorParameters, progress: &mut dyn FnMut
         names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
         ..Default::default()
     };
-    let mut dwell_acc: Vec<DwellAccumulator> =
-        (0..ctx.scan.segments.len()).map(|_| DwellAccumulator::new(N_PARAMS)).collect();
+    let mut dwell_acc: Vec<DwellAccumulator> = (0..ctx.scan.segments.len())
+        .map(|_| DwellAccumulator::new(N_PARAMS))
+        .collect();
 
     walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
         let d0 = dwell_at(&ctx.scan.segments, w.t_start);
@@ -438,12 +457,16 @@ fn kf_pass(ctx: &PassContext, params: &ErrorParameters, progress: &mut dyn FnMut
         if w.index % every == 0 || w.index + 1 == n_windows {
             let (d, s) = kf.parameters()?;
             history.t.push(w.t_end);
-            history
-                .value
-                .push((0..N_PARAMS).map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit).collect());
-            history
-                .sigma
-                .push((0..N_PARAMS).map(|i| s[i] / PARAMETERS[i].si_per_unit).collect());
+            history.value.push(
+                (0..N_PARAMS)
+                    .map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit)
+                    .collect(),
+            );
+            history.sigma.push(
+                (0..N_PARAMS)
+                    .map(|i| s[i] / PARAMETERS[i].si_per_unit)
+                    .collect(),
+            );
         }
         Ok(())
     })?;
@@ -500,7 +523,10 @@ pub fn estimate(
     cancel: &AtomicBool,
 ) -> Result<CalibrationResult, CalibError> {
     if !(run.sample_rate_hz.is_finite() && run.sample_rate_hz > 0.0) {
-        return Err(CalibError::Unusable(format!("sample rate {} Hz", run.sample_rate_hz)));
+        return Err(CalibError::Unusable(format!(
+            "sample rate {} Hz",
+            run.sample_rate_hz
+        )));
     }
     progress(Progress {
         fraction: 0.0,
@@ -508,7 +534,10 @@ pub fn estimate(
     });
     let scan = prescan(source, run, &opts.detect, cancel)?;
     let (arw, vrw) = match opts.noise {
-        Some(n) => (n.gyro_arw_deg_rt_h * DEG_PER_RT_H, n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ),
+        Some(n) => (
+            n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
+            n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
+        ),
         None => (scan.arw, scan.vrw),
     };
     let ctx = PassContext {
@@ -530,7 +559,10 @@ pub fn estimate(
         passes = pass;
         let base = 0.05 + share * (pass - 1) as f64 / max_passes as f64;
         let span = share / max_passes as f64;
-        let stage = format!("{} pass {pass} of at most {max_passes}", opts.estimator.name());
+        let stage = format!(
+            "{} pass {pass} of at most {max_passes}",
+            opts.estimator.name()
+        );
         let mut report = |f: f64| {
             progress(Progress {
                 fraction: base + span * f,
@@ -625,7 +657,9 @@ pub fn estimate(
     }
     let n_dwells = scan.dwells().count();
     if n_dwells < 10 {
-        warnings.push(format!("only {n_dwells} dwells found; the base model needs a multi-position scheme"));
+        warnings.push(format!(
+            "only {n_dwells} dwells found; the base model needs a multi-position scheme"
+        ));
     }
     let (roll, pitch, heading) = euler_from_dcm(&last.c_b_n0);
     let dwell1 = first_dwell(&scan)?;
@@ -658,7 +692,11 @@ pub fn estimate(
 }
 
 /// A least-squares solution in the form of a filter pass.
-fn lsq_as_pass(ctx: &PassContext, params: &ErrorParameters, progress: &mut dyn FnMut(f64)) -> Result<Pass, CalibError> {
+fn lsq_as_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
     let sol = lsq_pass(ctx, params, progress)?;
     Ok(Pass {
         delta: sol.delta,
@@ -670,7 +708,12 @@ fn lsq_as_pass(ctx: &PassContext, params: &ErrorParameters, progress: &mut dyn F
 }
 
 /// Compares the two estimators parameter by parameter.
-fn cross_check_report(kf: &ErrorParameters, kf_sigma: &[f64], lsq: &ErrorParameters, lsq_sigma: &[f64]) -> CrossCheck {
+fn cross_check_report(
+    kf: &ErrorParameters,
+    kf_sigma: &[f64],
+    lsq: &ErrorParameters,
+    lsq_sigma: &[f64],
+) -> CrossCheck {
     let mut entries = Vec::with_capacity(N_PARAMS);
     let mut flagged = Vec::new();
     for (i, info) in PARAMETERS.iter().enumerate() {

@@ -103,7 +103,9 @@ pub(super) fn lsq_pass(
         Ok(())
     })?;
     if nodes.len() < 3 {
-        return Err(CalibError::Unusable("too few dwells for the least-squares cross-check".into()));
+        return Err(CalibError::Unusable(
+            "too few dwells for the least-squares cross-check".into(),
+        ));
     }
     solve(ctx, &f, &p0, &prior, &nodes).map(|(delta, sigma)| LsqSolution {
         delta,
@@ -177,7 +179,10 @@ fn solve(
         let block = &ltw * &l;
         let g = -(&ltw * d);
         // Scatter into the normal equations: indices of (p, φ_k, φ_{k+1}).
-        let idx: Vec<usize> = (0..n_p).chain(phi(k)..phi(k) + 3).chain(phi(k + 1)..phi(k + 1) + 3).collect();
+        let idx: Vec<usize> = (0..n_p)
+            .chain(phi(k)..phi(k) + 3)
+            .chain(phi(k + 1)..phi(k + 1) + 3)
+            .collect();
         for (a_i, &gi) in idx.iter().enumerate() {
             rhs[gi] += g[a_i];
             for (b_i, &gj) in idx.iter().enumerate() {
@@ -185,9 +190,9 @@ fn solve(
             }
         }
     }
-    let chol = normal
-        .cholesky()
-        .ok_or_else(|| CalibError::Numerical("least-squares normal equations are singular".into()))?;
+    let chol = normal.cholesky().ok_or_else(|| {
+        CalibError::Numerical("least-squares normal equations are singular".into())
+    })?;
     let u = chol.solve(&rhs);
     let cov_diag = chol.inverse().diagonal();
     Ok((0..n_p)

@@ -62,7 +62,13 @@ pub fn plan(input: &PlanInput, opts: &EstimateOptions) -> Result<Plan, CalibErro
         site: input.site,
         sample_rate_hz: input.sample_rate_hz,
     };
-    let result = estimate(&SimSource(cfg), &run, &opts, &mut |_| {}, &AtomicBool::new(false))?;
+    let result = estimate(
+        &SimSource(cfg),
+        &run,
+        &opts,
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )?;
     Ok(Plan {
         scheme: input.scheme.name.clone(),
         duration_s: result.duration_s,

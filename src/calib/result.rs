@@ -130,7 +130,11 @@ impl CalibrationResult {
             }
         }
         for (name, p) in &self.effects {
-            let _ = writeln!(out, "{:<20} {:>14.5} {:>12.5}  {}", name, p.value, p.sigma, p.unit);
+            let _ = writeln!(
+                out,
+                "{:<20} {:>14.5} {:>12.5}  {}",
+                name, p.value, p.sigma, p.unit
+            );
         }
         for w in &self.warnings {
             let _ = writeln!(out, "warning: {w}");
