@@ -7,6 +7,7 @@
 //! `sim` (schemes and record generation), `io` (run files, metadata, truth).
 
 pub mod calib;
+pub mod diagnose;
 pub mod io;
 pub mod model;
 pub mod nav;

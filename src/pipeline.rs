@@ -57,3 +57,25 @@ pub fn calibrate_file(
     };
     calib::estimate(&source, &run, opts, progress, cancel)
 }
+
+/// Diagnoses the run in `data` described by `meta` (issue 5): the one
+/// function the CLI and the server call for the discrepancy workflow.
+pub fn diagnose_file(
+    data: &Path,
+    meta: &RunMetadata,
+    opts: &crate::diagnose::DiagnoseOptions,
+    progress: &mut dyn FnMut(Progress),
+    cancel: &AtomicBool,
+) -> Result<crate::diagnose::DiagnoseReport, crate::diagnose::DiagnoseError> {
+    let source = FileSource {
+        path: data.to_path_buf(),
+        format: meta.format,
+        sample_rate_hz: meta.sample_rate_hz,
+        limits: ReadLimits::default(),
+    };
+    let run = RunInfo {
+        site: meta.site(),
+        sample_rate_hz: meta.sample_rate_hz,
+    };
+    crate::diagnose::diagnose(&source, &run, opts, progress, cancel)
+}

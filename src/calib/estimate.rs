@@ -107,8 +107,8 @@ impl Prescan {
 /// Lowest noise densities used, so that a noise-free run still gives a
 /// well-posed filter: 1e-5 deg/√h and 0.1 µg/√Hz (thirty and fifty times
 /// below the quietest navigation-grade units).
-const MIN_ARW: f64 = 1e-5 * DEG_PER_RT_H;
-const MIN_VRW: f64 = 0.1 * UG_PER_RT_HZ;
+pub(crate) const MIN_ARW: f64 = 1e-5 * DEG_PER_RT_H;
+pub(crate) const MIN_VRW: f64 = 0.1 * UG_PER_RT_HZ;
 
 /// One streaming read: segmentation and noise from first differences of
 /// records in still blocks (at rest the true increments are constant, so
@@ -261,7 +261,7 @@ pub fn prior_sigma(scale: f64) -> Vec<f64> {
 }
 
 /// Index of the dwell holding time t, if any.
-pub(super) fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
+pub(crate) fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
     let i = segments.partition_point(|s| s.t_end < t);
     segments
         .get(i)
@@ -270,7 +270,7 @@ pub(super) fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
 }
 
 /// What every pass over a run shares.
-pub(super) struct PassContext<'a> {
+pub(crate) struct PassContext<'a> {
     pub source: &'a dyn RecordSource,
     pub run: &'a RunInfo,
     pub opts: &'a EstimateOptions,
@@ -288,7 +288,7 @@ impl PassContext<'_> {
     }
 }
 
-pub(super) fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
+pub(crate) fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
     let first = scan
         .segments
         .first()
@@ -308,7 +308,7 @@ fn scan_min_dwell(_scan: &Prescan) -> f64 {
 
 /// The attitude at the run's start: coarse alignment from the first
 /// dwell's compensated means, then fine alignment over that dwell.
-pub(super) fn align_start(
+pub(crate) fn align_start(
     ctx: &PassContext,
     comp: &Compensator,
 ) -> Result<Matrix3<f64>, CalibError> {
@@ -339,7 +339,7 @@ pub(super) fn align_start(
 }
 
 /// What a window's end offers the estimator that walks the run.
-pub(super) struct WindowEnd<'a> {
+pub(crate) struct WindowEnd<'a> {
     pub t_start: f64,
     pub t_end: f64,
     /// 0-based window number.
@@ -353,7 +353,7 @@ pub(super) struct WindowEnd<'a> {
 /// from `c_b_n0`, feeds the parameter columns of each record to
 /// `sens`, propagates `sens` at each window's end and hands the window to
 /// `on_window` (which may update and correct).
-pub(super) fn walk(
+pub(crate) fn walk(
     ctx: &PassContext,
     comp: &Compensator,
     c_b_n0: &Matrix3<f64>,
@@ -502,7 +502,7 @@ fn kf_pass(
 /// left after alignment is what the residual biases imply (tilt ≈ δb_a/g,
 /// heading ≈ δb_g,E/ω_ie,N); the bounds are three priors wide, so the
 /// prior adds no information the run must supply. The unit starts at rest.
-pub(super) fn initial_navigation_covariance(ctx: &PassContext) -> Matrix6<f64> {
+pub(crate) fn initial_navigation_covariance(ctx: &PassContext) -> Matrix6<f64> {
     let site = &ctx.run.site;
     let prior = prior_sigma(ctx.opts.prior_scale);
     let tilt = 3.0 * prior[9] / site.gravity();

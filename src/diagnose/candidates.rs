@@ -1,0 +1,181 @@
+//! The library of candidate effects: every SPEC §3 effect, parameterised
+//! as the sizes suggest, with the size used to compute each
+//! parameter's signature through the simulator.
+
+use serde::{Deserialize, Serialize};
+
+use crate::model::effects::{BiasDrift, LeverArms};
+use crate::model::Effects;
+
+/// One parameter of a candidate effect, in the effect's JSON unit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EffectParam {
+    pub name: String,
+    pub unit: String,
+    /// Size at which the signature is simulated (JSON unit). Chosen inside
+    /// the realistic range so the navigation errors stay linear but well
+    /// above rounding.
+    pub signature_size: f64,
+}
+
+/// A candidate effect: its SPEC §3 name and parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Candidate {
+    pub name: &'static str,
+    pub params: Vec<EffectParam>,
+}
+
+fn p(name: &str, unit: &str, size: f64) -> EffectParam {
+    EffectParam {
+        name: name.to_string(),
+        unit: unit.to_string(),
+        signature_size: size,
+    }
+}
+
+/// Every candidate, in SPEC §3 order.
+///
+/// - `accel_lever_arm`: each accelerometer displaced along its own axis
+///   (3 parameters). An accelerometer displaced across its axis senses
+///   the tangential acceleration of a turn instead; the along-axis form is
+///   the size effect of a triad whose sensors sit on their own axes.
+/// - `gyro_g_sensitivity`: the full 3 × 3 G (9).
+/// - `accel_delay`: τ (1).
+/// - `bias_drift`: 3 gyro + 3 accelerometer drift rates (6).
+/// - `gyro_scale_asymmetry`: A per gyro (3).
+pub fn library() -> Vec<Candidate> {
+    let axes = ["x", "y", "z"];
+    let mut g_sens = Vec::new();
+    for a in axes {
+        for b in axes {
+            g_sens.push(p(
+                &format!("gyro_g_sensitivity_{a}{b}"),
+                "deg/h/g",
+                0.01,
+            ));
+        }
+    }
+    vec![
+        Candidate {
+            name: "accel_lever_arm",
+            params: axes
+                .iter()
+                .map(|a| p(&format!("accel_lever_arm_{a}{a}"), "mm", 10.0))
+                .collect(),
+        },
+        Candidate {
+            name: "gyro_g_sensitivity",
+            params: g_sens,
+        },
+        Candidate {
+            name: "accel_delay",
+            params: vec![p("accel_delay", "ms", 1.0)],
+        },
+        Candidate {
+            name: "bias_drift",
+            params: axes
+                .iter()
+                .map(|a| p(&format!("bias_drift_gyro_{a}"), "deg/h/h", 0.01))
+                .chain(
+                    axes.iter()
+                        .map(|a| p(&format!("bias_drift_accel_{a}"), "ug/h", 10.0)),
+                )
+                .collect(),
+        },
+        Candidate {
+            name: "gyro_scale_asymmetry",
+            params: axes
+                .iter()
+                .map(|a| p(&format!("gyro_scale_asymmetry_{a}"), "ppm", 50.0))
+                .collect(),
+        },
+    ]
+}
+
+/// The SPEC §3 effects of `candidate` with parameter values `values`
+/// (JSON units), added to `into`.
+pub fn add_effect(into: &mut Effects, candidate: &str, values: &[f64]) {
+    match candidate {
+        "accel_lever_arm" => {
+            let mut l = into.accel_lever_arm.unwrap_or(LeverArms {
+                x: [0.0; 3],
+                y: [0.0; 3],
+                z: [0.0; 3],
+            });
+            l.x[0] += values[0];
+            l.y[1] += values[1];
+            l.z[2] += values[2];
+            into.accel_lever_arm = Some(l);
+        }
+        "gyro_g_sensitivity" => {
+            let mut g = into.gyro_g_sensitivity.unwrap_or([0.0; 9]);
+            for (gi, v) in g.iter_mut().zip(values) {
+                *gi += v;
+            }
+            into.gyro_g_sensitivity = Some(g);
+        }
+        "accel_delay" => {
+            into.accel_delay = Some(into.accel_delay.unwrap_or(0.0) + values[0]);
+        }
+        "bias_drift" => {
+            let mut d = into.bias_drift.unwrap_or(BiasDrift {
+                gyro: [0.0; 3],
+                accel: [0.0; 3],
+            });
+            for i in 0..3 {
+                d.gyro[i] += values[i];
+                d.accel[i] += values[3 + i];
+            }
+            into.bias_drift = Some(d);
+        }
+        "gyro_scale_asymmetry" => {
+            let mut a = into.gyro_scale_asymmetry.unwrap_or([0.0; 3]);
+            for (ai, v) in a.iter_mut().zip(values) {
+                *ai += v;
+            }
+            into.gyro_scale_asymmetry = Some(a);
+        }
+        _ => {}
+    }
+}
+
+/// The effects of one candidate parameter alone at its signature size.
+pub fn unit_effect(candidate: &Candidate, param: usize) -> Effects {
+    let mut values = vec![0.0; candidate.params.len()];
+    values[param] = candidate.params[param].signature_size;
+    let mut e = Effects::none();
+    add_effect(&mut e, candidate.name, &values);
+    e
+}
+
+/// The values of `candidate`'s parameters that `effects` holds, JSON
+/// units (the truth of a simulated run, for comparison).
+pub fn values_in(effects: &Effects, candidate: &str) -> Option<Vec<f64>> {
+    match candidate {
+        "accel_lever_arm" => effects.accel_lever_arm.map(|l| vec![l.x[0], l.y[1], l.z[2]]),
+        "gyro_g_sensitivity" => effects.gyro_g_sensitivity.map(|g| g.to_vec()),
+        "accel_delay" => effects.accel_delay.map(|d| vec![d]),
+        "bias_drift" => effects
+            .bias_drift
+            .map(|d| d.gyro.iter().chain(d.accel.iter()).copied().collect()),
+        "gyro_scale_asymmetry" => effects.gyro_scale_asymmetry.map(|a| a.to_vec()),
+        _ => None,
+    }
+}
+
+/// Which extra motion separates two candidates that fit this run's gap
+/// equally well, from how their signatures depend on the motion.
+pub fn separating_motion(a: &str, b: &str) -> String {
+    let pair = |x: &str, y: &str| (a == x && b == y) || (a == y && b == x);
+    if pair("accel_lever_arm", "accel_delay") {
+        "rotations at a second rate: the lever arm's velocity step grows with the rate squared, the delay's with the rate".into()
+    } else if pair("gyro_g_sensitivity", "bias_drift") {
+        "the first positions repeated at the end of the run: drift changes with time, g-sensitivity only with attitude".into()
+    } else if a == "gyro_scale_asymmetry" || b == "gyro_scale_asymmetry" {
+        "each axis turned both ways by the same angle: asymmetry changes sign with the direction, scale factor does not".into()
+    } else if pair("accel_delay", "gyro_g_sensitivity") {
+        "a slower rotation about the same axis: the delay's step scales with the rate, g-sensitivity's tilt does not".into()
+    } else {
+        "rotations about all three body axes in both directions and at two rates".into()
+    }
+}

@@ -1,0 +1,879 @@
+//! The discrepancy workflow (issue 5): where do the measured run and a
+//! simulation of it from its own calibration disagree, which effect
+//! outside the 24-parameter model explains it, and how much of the gap
+//! is left once that effect is modelled.
+//!
+//! 1. Calibrate with the base model (`calib::estimate`).
+//! 2. Reconstruct the scheme from the gyro data (`reconstruct`), simulate
+//!    it from the calibration without noise, navigate the measured and
+//!    the simulated run the same way and form the gap at nodes in the
+//!    dwells (`gap`): each dwell's drift and each rotation's velocity
+//!    step, with its covariance under noise alone.
+//! 3. Fit every candidate effect's signature (simulated, one run per
+//!    parameter) jointly with the base parameters; score by BIC; name the
+//!    best when it beats "no effect" by a clear margin; say when two
+//!    candidates cannot be told apart; iterate until nothing significant
+//!    remains.
+//! 4. The final calibration is the joint least-squares fit of the base
+//!    parameters and the named effects, linearised at the base
+//!    calibration (effects at these sizes are linear; the scale-factor
+//!    asymmetry is linear in A).
+//!
+//! No I/O: records come through `RecordSource`; `pipeline::diagnose_file`
+//! is the file-backed entry point.
+
+pub mod candidates;
+pub mod gap;
+pub mod plot;
+pub mod reconstruct;
+
+use std::collections::BTreeMap;
+use std::sync::atomic::AtomicBool;
+
+use nalgebra::{Vector3, Vector6};
+use serde::{Deserialize, Serialize};
+
+use crate::calib::estimate::{align_start, prescan, PassContext, MIN_ARW, MIN_VRW};
+use crate::calib::{
+    estimate, CalibError, CalibrationResult, EstimateOptions, ParameterEstimate, Progress,
+    RecordSource, RunInfo, SegmentKind,
+};
+use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
+use crate::model::{Effects, ErrorParameters, N_PARAMS, PARAMETERS};
+use candidates::{library, unit_effect, Candidate};
+use gap::{GapFit, GapProblem, Nodes, SimSetup};
+use reconstruct::Reconstruction;
+
+/// Errors of the discrepancy workflow.
+#[derive(Debug, thiserror::Error)]
+pub enum DiagnoseError {
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+    /// The run's scheme cannot be reconstructed or simulated.
+    #[error("scheme: {0}")]
+    Scheme(String),
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+}
+
+/// Tunable parts of the workflow.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct DiagnoseOptions {
+    /// The base calibration's options.
+    pub estimate: EstimateOptions,
+    /// A candidate is named when its BIC beats the current model's by
+    /// more than this (10 is "very strong" evidence on the Kass–Raftery
+    /// scale: a likelihood ratio above e⁵ after the parameter charge).
+    pub bic_threshold: f64,
+    /// The gap is significant when its χ² exceeds its expectation under
+    /// noise by this many σ of χ².
+    pub significance_sigma: f64,
+    /// Two candidates whose fitted gap signatures correlate above this
+    /// cannot be told apart on the run's scheme.
+    pub collinear_cos: f64,
+    /// Most effects added.
+    pub max_effects: usize,
+    /// Most points of each series in the report.
+    pub series_points: usize,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        DiagnoseOptions {
+            estimate: EstimateOptions {
+                cross_check: false,
+                ..EstimateOptions::default()
+            },
+            bic_threshold: 10.0,
+            significance_sigma: 3.0,
+            collinear_cos: 0.95,
+            max_effects: 4,
+            series_points: 1000,
+        }
+    }
+}
+
+/// A fitted effect parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EffectEstimate {
+    pub name: String,
+    pub value: f64,
+    pub sigma: f64,
+    pub unit: String,
+}
+
+/// One candidate's score at one step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CandidateScore {
+    pub effect: String,
+    pub n_params: usize,
+    /// Drop of the weighted residual cost when the candidate is added.
+    pub delta_chi2: f64,
+    /// Δχ² − k ln n: positive favours the candidate.
+    pub delta_bic: f64,
+    /// Posterior probability among "no further effect" and the candidates
+    /// (BIC weights).
+    pub probability: f64,
+    pub params: Vec<EffectEstimate>,
+}
+
+/// Where the gap lives.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Localisation {
+    /// Excess χ² (χ² − its expectation) in rotation steps and in dwells.
+    pub excess_rotations: f64,
+    pub excess_dwells: f64,
+    /// Per navigation axis (E, N, U): mean squared velocity residual over
+    /// its expectation (1 under noise alone).
+    pub axis_ratio: [f64; 3],
+    /// Mean normalised excess of the dwell stretches in the first and
+    /// second half of the run.
+    pub excess_first_half: f64,
+    pub excess_second_half: f64,
+    /// Segments whose gap exceeds the noise (by `significance_sigma`).
+    pub segments: Vec<String>,
+    pub summary: String,
+}
+
+/// The gap of one segment.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SegmentGap {
+    /// `dwell` or `rotation`.
+    pub kind: String,
+    /// 1-based number among the run's dwells or rotations.
+    pub index: usize,
+    pub t_start: f64,
+    pub t_end: f64,
+    /// Velocity residual (E, N, U): a dwell's drift summed over its
+    /// stretches, a rotation's step, m/s.
+    pub gap_mps: [f64; 3],
+    /// Its 1-σ under noise alone, m/s.
+    pub sigma_mps: [f64; 3],
+    pub chi2: f64,
+    pub dof: f64,
+}
+
+/// One iteration: the gap of the current model and what was decided.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DiagnoseStep {
+    /// Effects in the model when the gap was measured.
+    pub model: Vec<String>,
+    pub gap_rms: f64,
+    pub noise_floor_rms: f64,
+    pub chi2: f64,
+    /// Expected χ² under noise alone.
+    pub dof: f64,
+    /// (χ² − dof)/√(2 dof).
+    pub z: f64,
+    pub significant: bool,
+    pub candidates: Vec<CandidateScore>,
+    pub localisation: Localisation,
+    /// The effect named at this step, if any.
+    pub named: Option<String>,
+    /// Candidates that fit as well as the best and cannot be told apart.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub indistinguishable: Vec<String>,
+    pub decision: String,
+}
+
+/// Gap time series: node residuals (m/s) before and after, and the open-
+/// loop velocity difference measured − simulated at 1 Hz (decimated).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GapSeries {
+    /// Node times from the run's start, s.
+    pub t: Vec<f64>,
+    pub before: Vec<[f64; 3]>,
+    pub after: Vec<[f64; 3]>,
+    pub open_loop_t: Vec<f64>,
+    /// Measured − simulated from the base calibration.
+    pub open_loop_before: Vec<[f64; 3]>,
+    /// The same less the named effects' simulated contribution.
+    pub open_loop_after: Vec<[f64; 3]>,
+}
+
+/// What `sinscal diagnose` produces.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DiagnoseReport {
+    /// Effects added, in order (SPEC §3 names).
+    pub named: Vec<String>,
+    /// "named: …", "no significant effect", "unexplained: no candidate
+    /// fits" or "ambiguous: …".
+    pub verdict: String,
+    pub gap_rms_before: f64,
+    pub gap_rms_after: f64,
+    pub noise_floor_rms: f64,
+    /// The gap's excess over the noise floor, √(rms² − floor²), before
+    /// and after, m/s.
+    pub gap_excess_before: f64,
+    pub gap_excess_after: f64,
+    pub z_before: f64,
+    pub z_after: f64,
+    /// The final calibration (SPEC §5 result with the effect parameters).
+    pub calibration: CalibrationResult,
+    /// The named effects in SPEC §3 JSON form.
+    pub effects: Effects,
+    /// The base-model calibration the workflow started from.
+    pub base_calibration: CalibrationResult,
+    pub scheme: Reconstruction,
+    pub steps: Vec<DiagnoseStep>,
+    pub segments_before: Vec<SegmentGap>,
+    pub segments_after: Vec<SegmentGap>,
+    pub series: GapSeries,
+    pub warnings: Vec<String>,
+}
+
+impl DiagnoseReport {
+    /// A readable summary.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write;
+        let mut o = String::new();
+        let _ = writeln!(o, "verdict: {}", self.verdict);
+        let _ = writeln!(
+            o,
+            "gap RMS {:.3e} m/s before, {:.3e} m/s after; noise floor {:.3e} m/s; z {:.1} -> {:.1}",
+            self.gap_rms_before,
+            self.gap_rms_after,
+            self.noise_floor_rms,
+            self.z_before,
+            self.z_after
+        );
+        let _ = writeln!(
+            o,
+            "reconstructed scheme: {} rotations",
+            self.scheme.rotations.len()
+        );
+        for (i, s) in self.steps.iter().enumerate() {
+            let _ = writeln!(
+                o,
+                "step {}: model base-24{}; gap {:.3e} m/s (floor {:.3e}), chi2 {:.1} for {:.1} expected (z {:.1})",
+                i + 1,
+                s.model.iter().map(|m| format!("+{m}")).collect::<String>(),
+                s.gap_rms,
+                s.noise_floor_rms,
+                s.chi2,
+                s.dof,
+                s.z
+            );
+            let _ = writeln!(o, "  where: {}", s.localisation.summary);
+            let mut c = s.candidates.clone();
+            c.sort_by(|a, b| b.delta_bic.total_cmp(&a.delta_bic));
+            for cs in &c {
+                let _ = writeln!(
+                    o,
+                    "  {:<22} k={:<2} dchi2 {:>10.1}  dBIC {:>10.1}  p {:.3}",
+                    cs.effect, cs.n_params, cs.delta_chi2, cs.delta_bic, cs.probability
+                );
+            }
+            let _ = writeln!(o, "  -> {}", s.decision);
+        }
+        let _ = writeln!(o, "final calibration:");
+        o.push_str(&self.calibration.table());
+        o
+    }
+}
+
+/// Index of every effect parameter of the library, flattened.
+struct Library {
+    candidates: Vec<Candidate>,
+    /// First flattened index of each candidate.
+    offset: Vec<usize>,
+    n: usize,
+}
+
+impl Library {
+    fn new() -> Self {
+        let candidates = library();
+        let mut offset = Vec::new();
+        let mut n = 0;
+        for c in &candidates {
+            offset.push(n);
+            n += c.params.len();
+        }
+        Library {
+            candidates,
+            offset,
+            n,
+        }
+    }
+
+    fn columns(&self, c: usize) -> impl Iterator<Item = usize> {
+        self.offset[c]..self.offset[c] + self.candidates[c].params.len()
+    }
+}
+
+/// The effect estimates of candidate `c` in `fit`.
+fn effect_estimates(lib: &Library, fit: &GapFit, c: usize) -> Vec<EffectEstimate> {
+    let cand = &lib.candidates[c];
+    lib.columns(c)
+        .enumerate()
+        .filter_map(|(j, col)| {
+            let pos = fit.effects.iter().position(|&e| e == col)?;
+            let size = cand.params[j].signature_size;
+            Some(EffectEstimate {
+                name: cand.params[j].name.clone(),
+                value: fit.theta[pos] * size,
+                sigma: fit.theta_sigma[pos] * size,
+                unit: cand.params[j].unit.clone(),
+            })
+        })
+        .collect()
+}
+
+/// Weighted inner product of two residual sequences.
+fn inner(fit: &GapFit, a: &[Vector6<f64>], b: &[Vector6<f64>]) -> f64 {
+    a.iter()
+        .zip(b)
+        .zip(fit.residual_cov.iter())
+        .map(|((x, y), c)| {
+            // Weight by the noise alone's residual variance (diagonal):
+            // a scale-free comparison of two signatures.
+            (0..6)
+                .map(|i| x[i] * y[i] / c[(i, i)].max(f64::MIN_POSITIVE))
+                .sum::<f64>()
+        })
+        .sum()
+}
+
+/// What each stretch between nodes is: a piece of dwell d or the rotation
+/// step out of dwell d (d the ordinal among dwells, 0-based).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum StretchKind {
+    Dwell(usize),
+    Rotation(usize),
+}
+
+fn stretch_kinds(nodes: &Nodes, segments: &[crate::calib::RunSegment]) -> Vec<StretchKind> {
+    let ordinal: Vec<usize> = segments
+        .iter()
+        .scan(0usize, |n, s| {
+            let o = *n;
+            if s.kind == SegmentKind::Dwell {
+                *n += 1;
+            }
+            Some(o)
+        })
+        .collect();
+    (0..nodes.t.len() - 1)
+        .map(|k| {
+            let (a, b) = (nodes.segment[k], nodes.segment[k + 1]);
+            if a == b {
+                StretchKind::Dwell(ordinal[a])
+            } else {
+                StretchKind::Rotation(ordinal[a])
+            }
+        })
+        .collect()
+}
+
+fn segment_gaps(
+    fit: &GapFit,
+    nodes: &Nodes,
+    kinds: &[StretchKind],
+    t0: f64,
+) -> Vec<SegmentGap> {
+    let mut out: Vec<SegmentGap> = Vec::new();
+    for (k, kind) in kinds.iter().enumerate() {
+        let (name, index) = match kind {
+            StretchKind::Dwell(d) => ("dwell", d + 1),
+            StretchKind::Rotation(d) => ("rotation", d + 1),
+        };
+        let r = fit.residual[k];
+        let c = &fit.residual_cov[k];
+        let chi2: f64 = (0..6).map(|i| r[i] * r[i] / c[(i, i)].max(1e-300)).sum();
+        let new = !matches!(out.last(), Some(s) if s.kind == name && s.index == index);
+        if new {
+            out.push(SegmentGap {
+                kind: name.into(),
+                index,
+                t_start: nodes.t[k] - t0,
+                t_end: nodes.t[k + 1] - t0,
+                gap_mps: [0.0; 3],
+                sigma_mps: [0.0; 3],
+                chi2: 0.0,
+                dof: 0.0,
+            });
+        }
+        let s = out.last_mut().expect("pushed above");
+        s.t_end = nodes.t[k + 1] - t0;
+        for i in 0..3 {
+            s.gap_mps[i] += r[3 + i];
+            s.sigma_mps[i] += c[(3 + i, 3 + i)];
+        }
+        s.chi2 += chi2;
+        s.dof += 6.0 - (0..6).filter(|&i| c[(i, i)] <= 0.0).count() as f64;
+    }
+    for s in &mut out {
+        for v in &mut s.sigma_mps {
+            *v = v.max(0.0).sqrt();
+        }
+    }
+    out
+}
+
+fn localise(
+    fit: &GapFit,
+    nodes: &Nodes,
+    kinds: &[StretchKind],
+    segs: &[SegmentGap],
+    t0: f64,
+    t_total: f64,
+    z_sig: f64,
+) -> Localisation {
+    let mut loc = Localisation::default();
+    let (mut first, mut n_first, mut second, mut n_second) = (0.0, 0usize, 0.0, 0usize);
+    let mut axis_num = [0.0; 3];
+    let mut axis_den = [0.0; 3];
+    for (k, kind) in kinds.iter().enumerate() {
+        let r = fit.residual[k];
+        let c = &fit.residual_cov[k];
+        let mut chi2 = 0.0;
+        let mut exp = 0.0;
+        for i in 0..6 {
+            let var = c[(i, i)];
+            if var > 0.0 {
+                chi2 += r[i] * r[i] / var;
+                exp += 1.0;
+            }
+        }
+        for i in 0..3 {
+            axis_num[i] += r[3 + i] * r[3 + i];
+            axis_den[i] += c[(3 + i, 3 + i)].max(0.0);
+        }
+        match kind {
+            StretchKind::Rotation(_) => loc.excess_rotations += chi2 - exp,
+            StretchKind::Dwell(_) => {
+                loc.excess_dwells += chi2 - exp;
+                let tm = 0.5 * (nodes.t[k] + nodes.t[k + 1]) - t0;
+                if tm < 0.5 * t_total {
+                    first += (chi2 - exp) / exp.max(1.0);
+                    n_first += 1;
+                } else {
+                    second += (chi2 - exp) / exp.max(1.0);
+                    n_second += 1;
+                }
+            }
+        }
+    }
+    for i in 0..3 {
+        loc.axis_ratio[i] = axis_num[i] / axis_den[i].max(f64::MIN_POSITIVE);
+    }
+    loc.excess_first_half = first / n_first.max(1) as f64;
+    loc.excess_second_half = second / n_second.max(1) as f64;
+    for s in segs {
+        let dof = s.dof.max(1.0);
+        if (s.chi2 - dof) / (2.0 * dof).sqrt() > z_sig {
+            loc.segments.push(format!(
+                "{} {} ({:.0}-{:.0} s): gap [{:.2e}, {:.2e}, {:.2e}] m/s vs sigma [{:.1e}, {:.1e}, {:.1e}]",
+                s.kind,
+                s.index,
+                s.t_start,
+                s.t_end,
+                s.gap_mps[0],
+                s.gap_mps[1],
+                s.gap_mps[2],
+                s.sigma_mps[0],
+                s.sigma_mps[1],
+                s.sigma_mps[2]
+            ));
+        }
+    }
+    let total = loc.excess_rotations.max(0.0) + loc.excess_dwells.max(0.0);
+    let mut parts = Vec::new();
+    if total <= 0.0 || loc.segments.is_empty() {
+        parts.push("no segment stands out of the noise".to_string());
+    } else {
+        let rot = loc.excess_rotations.max(0.0) / total;
+        parts.push(if rot > 0.7 {
+            format!("during rotations ({:.0}% of the excess)", 100.0 * rot)
+        } else if rot < 0.3 {
+            format!("during dwells ({:.0}% of the excess)", 100.0 * (1.0 - rot))
+        } else {
+            format!(
+                "in rotations and dwells alike ({:.0}% in rotations)",
+                100.0 * rot
+            )
+        });
+        let names = ["east", "north", "up"];
+        let worst = (0..3)
+            .max_by(|&a, &b| loc.axis_ratio[a].total_cmp(&loc.axis_ratio[b]))
+            .unwrap_or(0);
+        parts.push(format!(
+            "axes E/N/U at {:.1}/{:.1}/{:.1}x the noise variance (mostly {})",
+            loc.axis_ratio[0], loc.axis_ratio[1], loc.axis_ratio[2], names[worst]
+        ));
+        let (a, b) = (loc.excess_first_half, loc.excess_second_half);
+        parts.push(if b > 2.0 * a.max(0.5) {
+            "growing with time".to_string()
+        } else {
+            "not growing with time".to_string()
+        });
+        parts.push(format!("{} segments stand out", loc.segments.len()));
+    }
+    loc.summary = parts.join("; ");
+    loc
+}
+
+/// Keeps at most `n` evenly spaced items.
+fn decimate<T: Clone>(v: &[T], n: usize) -> Vec<T> {
+    if v.len() <= n || n == 0 {
+        return v.to_vec();
+    }
+    let step = v.len().div_ceil(n);
+    v.iter().step_by(step).cloned().collect()
+}
+
+/// Diagnoses a run: the one entry point the CLI and the server call
+/// (through `pipeline::diagnose_file`).
+pub fn diagnose(
+    source: &dyn RecordSource,
+    run: &RunInfo,
+    opts: &DiagnoseOptions,
+    progress: &mut dyn FnMut(Progress),
+    cancel: &AtomicBool,
+) -> Result<DiagnoseReport, DiagnoseError> {
+    let base_cal = estimate(
+        source,
+        run,
+        &opts.estimate,
+        &mut |p| {
+            progress(Progress {
+                fraction: 0.4 * p.fraction,
+                stage: format!("base calibration: {}", p.stage),
+            })
+        },
+        cancel,
+    )?;
+    fn stage(progress: &mut dyn FnMut(Progress), f: f64, s: &str) {
+        progress(Progress {
+            fraction: f,
+            stage: s.to_string(),
+        })
+    }
+    stage(progress, 0.4, "reconstructing the scheme");
+    let scan = prescan(source, run, &opts.estimate.detect, cancel)?;
+    let (arw, vrw) = match opts.estimate.noise {
+        Some(n) => (
+            n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
+            n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
+        ),
+        None => (scan.arw, scan.vrw),
+    };
+    let ctx = PassContext {
+        source,
+        run,
+        opts: &opts.estimate,
+        scan: &scan,
+        arw: arw.max(MIN_ARW),
+        vrw: vrw.max(MIN_VRW),
+        cancel,
+    };
+    let canonical: BTreeMap<String, f64> = base_cal
+        .parameters
+        .iter()
+        .map(|(k, v)| (k.clone(), v.value))
+        .collect();
+    let params = ErrorParameters::from_canonical(&canonical)
+        .map_err(|e| DiagnoseError::Numerical(e.to_string()))?;
+    let recon = reconstruct::reconstruct(source, &scan, run.sample_rate_hz, &params.compensator())?;
+    let c_b_n0 = align_start(&ctx, &params.compensator())?;
+    stage(progress, 0.45, "navigating the measured run");
+    let nodes = gap::measured_nodes(&ctx, &params, &c_b_n0, &mut |_| {})?;
+
+    let lib = Library::new();
+    let unit_effects: Vec<Effects> = lib
+        .candidates
+        .iter()
+        .flat_map(|c| (0..c.params.len()).map(move |j| unit_effect(c, j)))
+        .collect();
+    let setup = SimSetup {
+        site: run.site,
+        sample_rate_hz: run.sample_rate_hz,
+        scheme: &recon.scheme,
+        params,
+        c_b_n0,
+        cancel,
+    };
+    stage(progress, 0.5, "simulating the candidates' signatures");
+    let sig = gap::signatures(&setup, &nodes, &unit_effects, &mut |f| {
+        progress(Progress {
+            fraction: 0.5 + 0.4 * f,
+            stage: "simulating the candidates' signatures".into(),
+        })
+    })?;
+    let problem = GapProblem::new(&ctx, &nodes, &sig, lib.n)?;
+    stage(progress, 0.9, "selecting effects");
+
+    let kinds = stretch_kinds(&nodes, &scan.segments);
+    let t0 = scan.t_begin;
+    let t_total = scan.t_end - scan.t_begin;
+    let mut named: Vec<usize> = Vec::new();
+    let mut steps: Vec<DiagnoseStep> = Vec::new();
+    let mut warnings = Vec::new();
+    let verdict: String;
+    let cols_of = |named: &[usize]| -> Vec<usize> {
+        named.iter().flat_map(|&c| lib.columns(c)).collect()
+    };
+    let first_fit = problem.fit(&[])?;
+    let mut current = first_fit.clone();
+    loop {
+        let n_obs = current.n_obs() as f64;
+        let significant = current.z() > opts.significance_sigma;
+        let mut scores = Vec::new();
+        let mut fits = Vec::new();
+        for (c, cand) in lib.candidates.iter().enumerate() {
+            if named.contains(&c) {
+                continue;
+            }
+            let mut with = named.clone();
+            with.push(c);
+            let fit = problem.fit(&cols_of(&with))?;
+            let k = cand.params.len() as f64;
+            let d_chi2 = current.objective - fit.objective;
+            scores.push(CandidateScore {
+                effect: cand.name.to_string(),
+                n_params: cand.params.len(),
+                delta_chi2: d_chi2,
+                delta_bic: d_chi2 - k * n_obs.ln(),
+                probability: 0.0,
+                params: effect_estimates(&lib, &fit, c),
+            });
+            fits.push((c, fit));
+        }
+        // BIC weights against "no further effect" (ΔBIC = 0).
+        let m = scores.iter().map(|s| s.delta_bic).fold(0.0, f64::max);
+        let norm: f64 =
+            (-m / 2.0).exp() + scores.iter().map(|s| ((s.delta_bic - m) / 2.0).exp()).sum::<f64>();
+        for s in &mut scores {
+            s.probability = ((s.delta_bic - m) / 2.0).exp() / norm;
+        }
+        let segs = segment_gaps(&current, &nodes, &kinds, t0);
+        let localisation = localise(
+            &current,
+            &nodes,
+            &kinds,
+            &segs,
+            t0,
+            t_total,
+            opts.significance_sigma,
+        );
+        let mut step = DiagnoseStep {
+            model: named
+                .iter()
+                .map(|&c| lib.candidates[c].name.to_string())
+                .collect(),
+            gap_rms: current.gap_rms(),
+            noise_floor_rms: current.noise_floor_rms(),
+            chi2: current.chi2,
+            dof: current.dof,
+            z: current.z(),
+            significant,
+            candidates: scores.clone(),
+            localisation,
+            named: None,
+            indistinguishable: Vec::new(),
+            decision: String::new(),
+        };
+        let best = scores
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.delta_bic.total_cmp(&b.1.delta_bic));
+        let Some((bi, best)) = best.filter(|(_, b)| b.delta_bic > opts.bic_threshold) else {
+            verdict = if significant {
+                "unexplained: no candidate fits".into()
+            } else if named.is_empty() {
+                "no significant effect".into()
+            } else {
+                format!(
+                    "named: {}; no significant effect remains",
+                    step.model.join(", ")
+                )
+            };
+            step.decision = if significant {
+                "the gap exceeds the noise but no candidate explains it".into()
+            } else {
+                "no significant effect".into()
+            };
+            steps.push(step);
+            break;
+        };
+        // Rivals: candidates nearly as good whose explained gap points the
+        // same way as the best's.
+        let (best_c, best_fit) = &fits[bi];
+        let explained = |f: &GapFit| -> Vec<Vector6<f64>> {
+            current
+                .residual
+                .iter()
+                .zip(f.residual.iter())
+                .map(|(a, b)| a - b)
+                .collect()
+        };
+        let e_best = explained(best_fit);
+        let n_best = inner(&current, &e_best, &e_best).sqrt();
+        let mut rivals = Vec::new();
+        for (oi, other) in scores.iter().enumerate() {
+            if oi == bi || other.delta_bic < opts.bic_threshold {
+                continue;
+            }
+            if best.delta_bic - other.delta_bic > opts.bic_threshold {
+                continue;
+            }
+            let e_o = explained(&fits[oi].1);
+            let cos = inner(&current, &e_best, &e_o) / (n_best * inner(&current, &e_o, &e_o).sqrt()).max(f64::MIN_POSITIVE);
+            if cos > opts.collinear_cos {
+                rivals.push(other.effect.clone());
+            }
+        }
+        if !rivals.is_empty() {
+            let mut hints = Vec::new();
+            for r in &rivals {
+                hints.push(format!(
+                    "{} vs {r}: add {}",
+                    best.effect,
+                    candidates::separating_motion(&best.effect, r)
+                ));
+            }
+            verdict = format!(
+                "ambiguous: {} and {} cannot be told apart on this scheme ({})",
+                best.effect,
+                rivals.join(", "),
+                hints.join("; ")
+            );
+            step.indistinguishable = rivals;
+            step.decision = verdict.clone();
+            steps.push(step);
+            break;
+        }
+        step.named = Some(best.effect.clone());
+        step.decision = format!(
+            "named {} (dBIC {:.1}, probability {:.3})",
+            best.effect, best.delta_bic, best.probability
+        );
+        steps.push(step);
+        named.push(*best_c);
+        current = best_fit.clone();
+        if named.len() >= opts.max_effects {
+            verdict = format!(
+                "named: {}; stopped at {} effects",
+                named
+                    .iter()
+                    .map(|&c| lib.candidates[c].name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                opts.max_effects
+            );
+            warnings.push(verdict.clone());
+            break;
+        }
+    }
+
+    // The final calibration: base corrections composed into the base
+    // calibration, the effects as fitted.
+    let prior = crate::calib::estimate::prior_sigma(opts.estimate.prior_scale);
+    let mut delta = ErrorParameters::zero();
+    for i in 0..N_PARAMS {
+        delta.si[i] = current.base[i] * prior[i];
+    }
+    let final_params = params.compose(&delta);
+    let mut calibration = base_cal.clone();
+    for (i, info) in PARAMETERS.iter().enumerate() {
+        calibration.parameters.insert(
+            info.name.to_string(),
+            ParameterEstimate {
+                value: final_params.canonical(i),
+                sigma: current.base_sigma[i] * prior[i] / info.si_per_unit,
+                unit: info.unit.to_string(),
+            },
+        );
+    }
+    let mut effects = Effects::none();
+    let mut model = "base-24".to_string();
+    for &c in &named {
+        let est = effect_estimates(&lib, &current, c);
+        let values: Vec<f64> = est.iter().map(|e| e.value).collect();
+        candidates::add_effect(&mut effects, lib.candidates[c].name, &values);
+        model.push('+');
+        model.push_str(lib.candidates[c].name);
+        for e in est {
+            calibration.effects.insert(
+                e.name,
+                ParameterEstimate {
+                    value: e.value,
+                    sigma: e.sigma,
+                    unit: e.unit,
+                },
+            );
+        }
+    }
+    calibration.model = model;
+    calibration.estimator = "kf, then gap least squares with effect states".into();
+    calibration.cross_check = None;
+    calibration.dwell_residuals.clear();
+    calibration.convergence = Default::default();
+
+    // Series.
+    let to3 = |v: Vector3<f64>| -> [f64; 3] { v.into() };
+    let node_t: Vec<f64> = nodes.t[1..].iter().map(|t| t - t0).collect();
+    let res_v = |f: &GapFit| -> Vec<[f64; 3]> {
+        f.residual
+            .iter()
+            .map(|r| to3(r.fixed_rows::<3>(3).into_owned()))
+            .collect()
+    };
+    let dt = 1.0 / run.sample_rate_hz;
+    let named_cols = cols_of(&named);
+    let ol: Vec<(f64, [f64; 3], [f64; 3])> = nodes
+        .series
+        .iter()
+        .enumerate()
+        .map(|(i, (k, v))| {
+            let before = v - sig.series_sim[i];
+            let mut after = before;
+            for (pos, &col) in named_cols.iter().enumerate() {
+                after -= sig.series[col][i] * current.theta[pos];
+            }
+            (*k as f64 * dt, to3(before), to3(after))
+        })
+        .collect();
+    let ol = decimate(&ol, opts.series_points);
+    let series = GapSeries {
+        t: decimate(&node_t, opts.series_points),
+        before: decimate(&res_v(&first_fit), opts.series_points),
+        after: decimate(&res_v(&current), opts.series_points),
+        open_loop_t: ol.iter().map(|x| x.0).collect(),
+        open_loop_before: ol.iter().map(|x| x.1).collect(),
+        open_loop_after: ol.iter().map(|x| x.2).collect(),
+    };
+
+    let floor = first_fit.noise_floor_rms();
+    let excess = |rms: f64| (rms * rms - floor * floor).max(0.0).sqrt();
+    stage(progress, 1.0, "done");
+    Ok(DiagnoseReport {
+        named: named
+            .iter()
+            .map(|&c| lib.candidates[c].name.to_string())
+            .collect(),
+        verdict,
+        gap_rms_before: first_fit.gap_rms(),
+        gap_rms_after: current.gap_rms(),
+        noise_floor_rms: floor,
+        gap_excess_before: excess(first_fit.gap_rms()),
+        gap_excess_after: excess(current.gap_rms()),
+        z_before: first_fit.z(),
+        z_after: current.z(),
+        segments_before: segment_gaps(&first_fit, &nodes, &kinds, t0),
+        segments_after: segment_gaps(&current, &nodes, &kinds, t0),
+        calibration,
+        effects,
+        base_calibration: base_cal,
+        scheme: recon,
+        steps,
+        series,
+        warnings,
+    })
+}
+
+/// The candidates' SPEC §3 names, in library order.
+pub fn candidate_names() -> Vec<&'static str> {
+    Library::new().candidates.iter().map(|c| c.name).collect()
+}
