@@ -11,11 +11,13 @@ use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::{EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal::diagnose::plot::gap_svg;
+use sinscal::diagnose::DiagnoseOptions;
 use sinscal::io::meta::{read_json, write_json, RunMetadata, Truth};
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
-use sinscal::pipeline::calibrate_file;
+use sinscal::pipeline::{calibrate_file, diagnose_file};
 use sinscal::sim::{Noise, SchemeRef, SimConfig};
 
 #[derive(Parser)]
@@ -38,6 +40,25 @@ enum Command {
     Calibrate(CalibrateArgs),
     /// Predict the 1-σ a scheme reaches at a given noise, before any data.
     Plan(PlanArgs),
+    /// Find where the run and a simulation of its calibration disagree,
+    /// name the effect outside the base model that explains it, add it
+    /// and show the gap shrink.
+    Diagnose(DiagnoseArgs),
+}
+
+#[derive(clap::Args)]
+struct DiagnoseArgs {
+    /// The run's data file (CSV, gzip CSV or f64le).
+    run: PathBuf,
+    /// Its metadata; default: the sidecar beside it (run.csv → run.json).
+    #[arg(long)]
+    meta: Option<PathBuf>,
+    /// Write the report (JSON) here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Also write the gap plot (SVG) here.
+    #[arg(long)]
+    svg: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -314,11 +335,45 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<()> {
+    let meta_path = a.meta.clone().unwrap_or_else(|| sidecar(&a.run));
+    let text =
+        std::fs::read(&meta_path).with_context(|| format!("reading {}", meta_path.display()))?;
+    let meta =
+        RunMetadata::from_json(&text).with_context(|| format!("in {}", meta_path.display()))?;
+    let cancel = AtomicBool::new(false);
+    let mut last_stage = String::new();
+    let report = diagnose_file(
+        &a.run,
+        &meta,
+        &DiagnoseOptions::default(),
+        &mut |p| {
+            if p.stage != last_stage {
+                eprintln!("{:>3.0}% {}", 100.0 * p.fraction, p.stage);
+                last_stage = p.stage;
+            }
+        },
+        &cancel,
+    )?;
+    print!("unit {}\n{}", meta.unit_serial, report.summary());
+    if let Some(out) = &a.out {
+        write_json(out, &report)?;
+        eprintln!("wrote {}", out.display());
+    }
+    if let Some(svg) = &a.svg {
+        std::fs::write(svg, gap_svg(&report))
+            .with_context(|| format!("writing {}", svg.display()))?;
+        eprintln!("wrote {}", svg.display());
+    }
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Simulate(a) => run_simulate(a),
         Command::Calibrate(a) => run_calibrate(a),
         Command::Plan(a) => run_plan(a),
+        Command::Diagnose(a) => run_diagnose(a),
     }
 }

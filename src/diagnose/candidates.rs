@@ -48,11 +48,7 @@ pub fn library() -> Vec<Candidate> {
     let mut g_sens = Vec::new();
     for a in axes {
         for b in axes {
-            g_sens.push(p(
-                &format!("gyro_g_sensitivity_{a}{b}"),
-                "deg/h/g",
-                0.01,
-            ));
+            g_sens.push(p(&format!("gyro_g_sensitivity_{a}{b}"), "deg/h/g", 0.01));
         }
     }
     vec![
@@ -152,7 +148,9 @@ pub fn unit_effect(candidate: &Candidate, param: usize) -> Effects {
 /// units (the truth of a simulated run, for comparison).
 pub fn values_in(effects: &Effects, candidate: &str) -> Option<Vec<f64>> {
     match candidate {
-        "accel_lever_arm" => effects.accel_lever_arm.map(|l| vec![l.x[0], l.y[1], l.z[2]]),
+        "accel_lever_arm" => effects
+            .accel_lever_arm
+            .map(|l| vec![l.x[0], l.y[1], l.z[2]]),
         "gyro_g_sensitivity" => effects.gyro_g_sensitivity.map(|g| g.to_vec()),
         "accel_delay" => effects.accel_delay.map(|d| vec![d]),
         "bias_drift" => effects

@@ -236,7 +236,9 @@ pub fn signatures(
             progress((i + 1) as f64 / a.len().max(1) as f64);
         }
         let second = h.join().unwrap_or_else(|_| {
-            vec![Err(DiagnoseError::Scheme("a simulation thread failed".into()))]
+            vec![Err(DiagnoseError::Scheme(
+                "a simulation thread failed".into(),
+            ))]
         });
         first.extend(second);
         first
@@ -418,9 +420,7 @@ impl GapProblem {
             }
         }
         let local = |k: usize| -> Vec<usize> {
-            (0..n_p + n_e)
-                .chain(phi(k)..phi(k) + 6)
-                .collect::<Vec<_>>()
+            (0..n_p + n_e).chain(phi(k)..phi(k) + 6).collect::<Vec<_>>()
         };
         let design = |k: usize, s: &Stretch| -> DMatrix<f64> {
             let mut l = DMatrix::<f64>::zeros(6, n_p + n_e + 6);

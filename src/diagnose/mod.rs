@@ -366,12 +366,7 @@ fn stretch_kinds(nodes: &Nodes, segments: &[crate::calib::RunSegment]) -> Vec<St
         .collect()
 }
 
-fn segment_gaps(
-    fit: &GapFit,
-    nodes: &Nodes,
-    kinds: &[StretchKind],
-    t0: f64,
-) -> Vec<SegmentGap> {
+fn segment_gaps(fit: &GapFit, nodes: &Nodes, kinds: &[StretchKind], t0: f64) -> Vec<SegmentGap> {
     let mut out: Vec<SegmentGap> = Vec::new();
     for (k, kind) in kinds.iter().enumerate() {
         let (name, index) = match kind {
@@ -611,9 +606,8 @@ pub fn diagnose(
     let mut steps: Vec<DiagnoseStep> = Vec::new();
     let mut warnings = Vec::new();
     let verdict: String;
-    let cols_of = |named: &[usize]| -> Vec<usize> {
-        named.iter().flat_map(|&c| lib.columns(c)).collect()
-    };
+    let cols_of =
+        |named: &[usize]| -> Vec<usize> { named.iter().flat_map(|&c| lib.columns(c)).collect() };
     let first_fit = problem.fit(&[])?;
     let mut current = first_fit.clone();
     loop {
@@ -642,8 +636,11 @@ pub fn diagnose(
         }
         // BIC weights against "no further effect" (ΔBIC = 0).
         let m = scores.iter().map(|s| s.delta_bic).fold(0.0, f64::max);
-        let norm: f64 =
-            (-m / 2.0).exp() + scores.iter().map(|s| ((s.delta_bic - m) / 2.0).exp()).sum::<f64>();
+        let norm: f64 = (-m / 2.0).exp()
+            + scores
+                .iter()
+                .map(|s| ((s.delta_bic - m) / 2.0).exp())
+                .sum::<f64>();
         for s in &mut scores {
             s.probability = ((s.delta_bic - m) / 2.0).exp() / norm;
         }
@@ -719,7 +716,8 @@ pub fn diagnose(
                 continue;
             }
             let e_o = explained(&fits[oi].1);
-            let cos = inner(&current, &e_best, &e_o) / (n_best * inner(&current, &e_o, &e_o).sqrt()).max(f64::MIN_POSITIVE);
+            let cos = inner(&current, &e_best, &e_o)
+                / (n_best * inner(&current, &e_o, &e_o).sqrt()).max(f64::MIN_POSITIVE);
             if cos > opts.collinear_cos {
                 rivals.push(other.effect.clone());
             }

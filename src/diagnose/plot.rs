@@ -14,7 +14,15 @@ const TOP: f64 = 28.0;
 const BOTTOM: f64 = 32.0;
 const COLOURS: [&str; 3] = ["#d62728", "#2ca02c", "#1f77b4"];
 
-fn panel(out: &mut String, y0: f64, title: &str, t: &[f64], v: &[[f64; 3]], scale: f64, floor: f64) {
+fn panel(
+    out: &mut String,
+    y0: f64,
+    title: &str,
+    t: &[f64],
+    v: &[[f64; 3]],
+    scale: f64,
+    floor: f64,
+) {
     let t_max = t.iter().copied().fold(1e-9, f64::max);
     let px = |x: f64| LEFT + (W - LEFT - RIGHT) * x / t_max;
     let py = |y: f64| y0 + TOP + (H - TOP - BOTTOM) * (0.5 - 0.5 * y / scale);
@@ -114,10 +122,7 @@ pub fn gap_svg(report: &DiagnoseReport) -> String {
     panel(
         &mut out,
         H,
-        &format!(
-            "gap after ({model}): RMS {:.2e} m/s",
-            report.gap_rms_after
-        ),
+        &format!("gap after ({model}): RMS {:.2e} m/s", report.gap_rms_after),
         &s.t,
         &s.after,
         scale,

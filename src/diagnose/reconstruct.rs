@@ -102,7 +102,10 @@ pub fn reconstruct(
             .map(|i| (i, [Axis::X, Axis::Y, Axis::Z][i]))
             .max_by(|a, b| rv[a.0].abs().total_cmp(&rv[b.0].abs()))
             .unwrap_or((0, Axis::X));
-        let off_axis = (rv[axis_i].abs() / angle).clamp(-1.0, 1.0).acos().to_degrees();
+        let off_axis = (rv[axis_i].abs() / angle)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
         if off_axis > AXIS_TOLERANCE_DEG {
             return Err(DiagnoseError::Scheme(format!(
                 "the motion at t = {:.1} s turns about [{:.3}, {:.3}, {:.3}] (body), {:.1} deg from any body axis: only turns about body axes can be reconstructed",

@@ -106,7 +106,11 @@ pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
         100.0 * excess_shrink,
         100.0 * (1.0 - rep.gap_rms_after / rep.gap_rms_before)
     );
-    assert!(excess_shrink >= 0.9, "gap excess shrank by only {:.1}%", 100.0 * excess_shrink);
+    assert!(
+        excess_shrink >= 0.9,
+        "gap excess shrank by only {:.1}%",
+        100.0 * excess_shrink
+    );
     assert!(
         rep.gap_rms_after <= 1.2 * rep.noise_floor_rms,
         "gap after {:.3e} above 1.2x the floor {:.3e}",
@@ -116,12 +120,27 @@ pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
     assert_base_within_table1(rep, &cfg.params);
 }
 
+/// Every base parameter within its Table 1 bound of the truth, with the
+/// one allowance `calib_accuracy` makes: a gyro bias beyond the bound is
+/// accepted while within 3.5 of its own σ. With bias drift in the model
+/// the bias at t = 0 is an intercept of a line over the run and its σ
+/// (≈ 0.0005 deg/h here) makes 0.00075 deg/h a 1.5σ bound.
 pub fn assert_base_within_table1(rep: &DiagnoseReport, truth: &ErrorParameters) {
     let mut bad = Vec::new();
     for (i, p) in PARAMETERS.iter().enumerate() {
         let est = &rep.calibration.parameters[p.name];
         let err = est.value - truth.canonical(i);
         if err.abs() >= bound(p.group) {
+            eprintln!(
+                "{} error {err:.6} {} ({:.2} sigma) beyond the Table 1 bound {}",
+                p.name,
+                p.unit,
+                err / est.sigma,
+                bound(p.group)
+            );
+        }
+        let statistical = p.group == Group::GyroBias && err.abs() < 3.5 * est.sigma;
+        if err.abs() >= bound(p.group) && !statistical {
             bad.push(format!(
                 "{} error {err:.6} {} ({:.2} sigma) beyond {}",
                 p.name,
