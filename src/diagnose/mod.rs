@@ -39,7 +39,7 @@ use crate::calib::{
     RecordSource, RunInfo, SegmentKind,
 };
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{Effects, ErrorParameters, N_PARAMS, PARAMETERS};
+use crate::model::{Effects, ErrorParameters, PARAMETERS};
 use candidates::{library, unit_effect, Candidate};
 use gap::{GapFit, GapProblem, Nodes, SimSetup};
 use reconstruct::Reconstruction;
@@ -769,8 +769,8 @@ pub fn diagnose(
     // calibration, the effects as fitted.
     let prior = crate::calib::estimate::prior_sigma(opts.estimate.prior_scale);
     let mut delta = ErrorParameters::zero();
-    for i in 0..N_PARAMS {
-        delta.si[i] = current.base[i] * prior[i];
+    for ((d, b), s) in delta.si.iter_mut().zip(&current.base).zip(&prior) {
+        *d = b * s;
     }
     let final_params = params.compose(&delta);
     let mut calibration = base_cal.clone();
