@@ -53,7 +53,14 @@ fn main() {
             site,
             sample_rate_hz: 100.0,
         };
-        let res = estimate(&SimSource(cfg), &run, &opts, &mut |_| {}, &AtomicBool::new(false)).unwrap();
+        let res = estimate(
+            &SimSource(cfg),
+            &run,
+            &opts,
+            &mut |_| {},
+            &AtomicBool::new(false),
+        )
+        .unwrap();
         for (i, p) in PARAMETERS.iter().enumerate() {
             let g = GROUPS.iter().position(|(g, _)| *g == p.group).unwrap();
             let e = &res.parameters[p.name];
@@ -63,12 +70,19 @@ fn main() {
             worst[g] = worst[g].max(err.abs());
             count[g] += 1;
             if err.abs() > GROUPS[g].1 {
-                beyond.push(format!("seed {seed} {} err {err:.6} ({:.2}σ)", p.name, err / e.sigma));
+                beyond.push(format!(
+                    "seed {seed} {} err {err:.6} ({:.2}σ)",
+                    p.name,
+                    err / e.sigma
+                ));
             }
         }
     }
     println!("{n} seeds, reference scenario, filter only");
-    println!("{:<15} {:>10} {:>12} {:>12} {:>10}", "family", "rms err/σ", "mean σ", "max |err|", "bound");
+    println!(
+        "{:<15} {:>10} {:>12} {:>12} {:>10}",
+        "family", "rms err/σ", "mean σ", "max |err|", "bound"
+    );
     for (g, (group, bound)) in GROUPS.iter().enumerate() {
         println!(
             "{:<15} {:>10.2} {:>12.6} {:>12.6} {:>10}",
