@@ -6,6 +6,9 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+mod common;
+use common::peak_rss_mb;
+
 use sinscal::calib::EstimateOptions;
 use sinscal::io::data::DataFormat;
 use sinscal::io::meta::RunMetadata;
@@ -14,16 +17,6 @@ use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
 use sinscal::pipeline::calibrate_file;
 use sinscal::sim::{Noise, Scheme, SimConfig};
-
-fn peak_rss_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|kb| kb.parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
 
 fn main() {
     let cfg = SimConfig {

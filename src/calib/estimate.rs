@@ -20,7 +20,7 @@ use super::sensitivity::base_columns;
 use super::{CalibError, EstimatorKind, Progress, RecordSource, RunInfo};
 use crate::model::params::paper_magnitude;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{Compensator, ErrorParameters, Group, N_PARAMS, PARAMETERS};
+use crate::model::{Compensator, ErrorParameters, N_PARAMS, PARAMETERS};
 use crate::nav::attitude::euler_from_dcm;
 use crate::nav::Strapdown;
 use crate::record::Record;
@@ -295,15 +295,11 @@ pub(crate) fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
         .ok_or_else(|| CalibError::Unusable("no segments".into()))?;
     if first.kind != SegmentKind::Dwell {
         return Err(CalibError::Unusable(format!(
-            "the run must begin at rest: it moves from t = {:.2} s (no dwell of at least {} s first)",
-            first.t_start, scan_min_dwell(scan)
+            "the run must begin at rest: it moves from t = {:.2} s without a dwell long enough to align on",
+            first.t_start
         )));
     }
     Ok(first)
-}
-
-fn scan_min_dwell(_scan: &Prescan) -> f64 {
-    DetectOptions::default().min_dwell_s
 }
 
 /// The attitude at the run's start: coarse alignment from the first
@@ -737,9 +733,4 @@ fn cross_check_report(
         entries,
         flagged,
     }
-}
-
-/// Groups for reporting, in canonical order.
-pub fn group_of(i: usize) -> Group {
-    PARAMETERS[i].group
 }
