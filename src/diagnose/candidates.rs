@@ -18,10 +18,13 @@ pub struct EffectParam {
     pub signature_size: f64,
 }
 
-/// A candidate effect: its SPEC §3 name and parameters.
+/// A candidate effect: its own name, the SPEC §3 effect it models, and
+/// its parameters. Two candidates may model one effect (the lever arm
+/// along the accelerometers' own axes, and in full).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Candidate {
     pub name: &'static str,
+    pub effect: &'static str,
     pub params: Vec<EffectParam>,
 }
 
@@ -36,7 +39,7 @@ fn p(name: &str, unit: &str, size: f64) -> EffectParam {
 /// Every candidate, in SPEC §3 order.
 ///
 /// - `accel_lever_arm`: each accelerometer displaced along its own axis
-///   (3 parameters). An accelerometer displaced across its axis senses
+///   (3 parameters), or across its axes (`accel_lever_arm_cross`, 6). An accelerometer displaced across its axis senses
 ///   the tangential acceleration of a turn instead; the along-axis form is
 ///   the size effect of a triad whose sensors sit on their own axes.
 /// - `gyro_g_sensitivity`: the full 3 × 3 G (9).
@@ -51,24 +54,44 @@ pub fn library() -> Vec<Candidate> {
             g_sens.push(p(&format!("gyro_g_sensitivity_{a}{b}"), "deg/h/g", 0.01));
         }
     }
+    // Across the axes: the six off-axis components. The full nine are not
+    // all observable: moving all three sensors by one vector r is moving
+    // the point they sense, whose velocity is zero at every dwell.
+    let mut lever_cross = Vec::new();
+    for a in axes {
+        for b in axes {
+            if a != b {
+                lever_cross.push(p(&format!("accel_lever_arm_{a}{b}"), "mm", 10.0));
+            }
+        }
+    }
     vec![
         Candidate {
             name: "accel_lever_arm",
+            effect: "accel_lever_arm",
             params: axes
                 .iter()
                 .map(|a| p(&format!("accel_lever_arm_{a}{a}"), "mm", 10.0))
                 .collect(),
         },
         Candidate {
+            name: "accel_lever_arm_cross",
+            effect: "accel_lever_arm",
+            params: lever_cross,
+        },
+        Candidate {
             name: "gyro_g_sensitivity",
+            effect: "gyro_g_sensitivity",
             params: g_sens,
         },
         Candidate {
             name: "accel_delay",
+            effect: "accel_delay",
             params: vec![p("accel_delay", "ms", 1.0)],
         },
         Candidate {
             name: "bias_drift",
+            effect: "bias_drift",
             params: axes
                 .iter()
                 .map(|a| p(&format!("bias_drift_gyro_{a}"), "deg/h/h", 0.01))
@@ -80,6 +103,7 @@ pub fn library() -> Vec<Candidate> {
         },
         Candidate {
             name: "gyro_scale_asymmetry",
+            effect: "gyro_scale_asymmetry",
             params: axes
                 .iter()
                 .map(|a| p(&format!("gyro_scale_asymmetry_{a}"), "ppm", 50.0))
@@ -88,7 +112,7 @@ pub fn library() -> Vec<Candidate> {
     ]
 }
 
-/// The SPEC §3 effects of `candidate` with parameter values `values`
+/// The SPEC §3 effects of candidate `candidate` with parameter values `values`
 /// (JSON units), added to `into`.
 pub fn add_effect(into: &mut Effects, candidate: &str, values: &[f64]) {
     match candidate {
@@ -101,6 +125,20 @@ pub fn add_effect(into: &mut Effects, candidate: &str, values: &[f64]) {
             l.x[0] += values[0];
             l.y[1] += values[1];
             l.z[2] += values[2];
+            into.accel_lever_arm = Some(l);
+        }
+        "accel_lever_arm_cross" => {
+            let mut l = into.accel_lever_arm.unwrap_or(LeverArms {
+                x: [0.0; 3],
+                y: [0.0; 3],
+                z: [0.0; 3],
+            });
+            l.x[1] += values[0];
+            l.x[2] += values[1];
+            l.y[0] += values[2];
+            l.y[2] += values[3];
+            l.z[0] += values[4];
+            l.z[1] += values[5];
             into.accel_lever_arm = Some(l);
         }
         "gyro_g_sensitivity" => {
@@ -151,6 +189,9 @@ pub fn values_in(effects: &Effects, candidate: &str) -> Option<Vec<f64>> {
         "accel_lever_arm" => effects
             .accel_lever_arm
             .map(|l| vec![l.x[0], l.y[1], l.z[2]]),
+        "accel_lever_arm_cross" => effects
+            .accel_lever_arm
+            .map(|l| vec![l.x[1], l.x[2], l.y[0], l.y[2], l.z[0], l.z[1]]),
         "gyro_g_sensitivity" => effects.gyro_g_sensitivity.map(|g| g.to_vec()),
         "accel_delay" => effects.accel_delay.map(|d| vec![d]),
         "bias_drift" => effects

@@ -106,11 +106,16 @@ pub struct EffectEstimate {
 /// One candidate's score at one step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CandidateScore {
+    /// SPEC §3 name.
     pub effect: String,
+    /// The parameterisation (e.g. `accel_lever_arm_full`).
+    pub candidate: String,
     pub n_params: usize,
     /// Drop of the weighted residual cost when the candidate is added.
     pub delta_chi2: f64,
-    /// Δχ² − k ln n: positive favours the candidate.
+    /// χ²/dof left with the candidate, at least 1.
+    pub dispersion: f64,
+    /// Δχ²/dispersion − k ln n: positive favours the candidate.
     pub delta_bic: f64,
     /// Posterior probability among "no further effect" and the candidates
     /// (BIC weights).
@@ -197,6 +202,8 @@ pub struct GapSeries {
 pub struct DiagnoseReport {
     /// Effects added, in order (SPEC §3 names).
     pub named: Vec<String>,
+    /// The parameterisation of each (candidate names, same order).
+    pub named_candidates: Vec<String>,
     /// "named: …", "no significant effect", "unexplained: no candidate
     /// fits" or "ambiguous: …".
     pub verdict: String,
@@ -262,7 +269,7 @@ impl DiagnoseReport {
                 let _ = writeln!(
                     o,
                     "  {:<22} k={:<2} dchi2 {:>10.1}  dBIC {:>10.1}  p {:.3}",
-                    cs.effect, cs.n_params, cs.delta_chi2, cs.delta_bic, cs.probability
+                    cs.candidate, cs.n_params, cs.delta_chi2, cs.delta_bic, cs.probability
                 );
             }
             let _ = writeln!(o, "  -> {}", s.decision);
@@ -616,7 +623,12 @@ pub fn diagnose(
         let mut scores = Vec::new();
         let mut fits = Vec::new();
         for (c, cand) in lib.candidates.iter().enumerate() {
-            if named.contains(&c) {
+            // One parameterisation per effect: a nested one would repeat
+            // columns already fitted.
+            if named
+                .iter()
+                .any(|&n| lib.candidates[n].effect == cand.effect)
+            {
                 continue;
             }
             let mut with = named.clone();
@@ -624,11 +636,18 @@ pub fn diagnose(
             let fit = problem.fit(&cols_of(&with))?;
             let k = cand.params.len() as f64;
             let d_chi2 = current.objective - fit.objective;
+            // Quasi-likelihood: when the candidate leaves the gap far above
+            // the noise, the residual misfit, not the noise, is the scale
+            // against which its improvement is judged, so a candidate that
+            // explains a sliver of an unexplained gap is not named.
+            let dispersion = (fit.chi2 / fit.dof).max(1.0);
             scores.push(CandidateScore {
-                effect: cand.name.to_string(),
+                effect: cand.effect.to_string(),
+                candidate: cand.name.to_string(),
                 n_params: cand.params.len(),
                 delta_chi2: d_chi2,
-                delta_bic: d_chi2 - k * n_obs.ln(),
+                dispersion,
+                delta_bic: d_chi2 / dispersion - k * n_obs.ln(),
                 probability: 0.0,
                 params: effect_estimates(&lib, &fit, c),
             });
@@ -657,7 +676,7 @@ pub fn diagnose(
         let mut step = DiagnoseStep {
             model: named
                 .iter()
-                .map(|&c| lib.candidates[c].name.to_string())
+                .map(|&c| lib.candidates[c].effect.to_string())
                 .collect(),
             gap_rms: current.gap_rms(),
             noise_floor_rms: current.noise_floor_rms(),
@@ -676,8 +695,13 @@ pub fn diagnose(
             .enumerate()
             .max_by(|a, b| a.1.delta_bic.total_cmp(&b.1.delta_bic));
         let Some((bi, best)) = best.filter(|(_, b)| b.delta_bic > opts.bic_threshold) else {
-            verdict = if significant {
+            verdict = if significant && named.is_empty() {
                 "unexplained: no candidate fits".into()
+            } else if significant {
+                format!(
+                    "named: {}; unexplained: no candidate fits the rest",
+                    step.model.join(", ")
+                )
             } else if named.is_empty() {
                 "no significant effect".into()
             } else {
@@ -709,7 +733,7 @@ pub fn diagnose(
         let n_best = inner(&current, &e_best, &e_best).sqrt();
         let mut rivals = Vec::new();
         for (oi, other) in scores.iter().enumerate() {
-            if oi == bi || other.delta_bic < opts.bic_threshold {
+            if oi == bi || other.delta_bic < opts.bic_threshold || other.effect == best.effect {
                 continue;
             }
             if best.delta_bic - other.delta_bic > opts.bic_threshold {
@@ -755,7 +779,7 @@ pub fn diagnose(
                 "named: {}; stopped at {} effects",
                 named
                     .iter()
-                    .map(|&c| lib.candidates[c].name)
+                    .map(|&c| lib.candidates[c].effect)
                     .collect::<Vec<_>>()
                     .join(", "),
                 opts.max_effects
@@ -791,7 +815,7 @@ pub fn diagnose(
         let values: Vec<f64> = est.iter().map(|e| e.value).collect();
         candidates::add_effect(&mut effects, lib.candidates[c].name, &values);
         model.push('+');
-        model.push_str(lib.candidates[c].name);
+        model.push_str(lib.candidates[c].effect);
         for e in est {
             calibration.effects.insert(
                 e.name,
@@ -849,6 +873,10 @@ pub fn diagnose(
     Ok(DiagnoseReport {
         named: named
             .iter()
+            .map(|&c| lib.candidates[c].effect.to_string())
+            .collect(),
+        named_candidates: named
+            .iter()
             .map(|&c| lib.candidates[c].name.to_string())
             .collect(),
         verdict,
@@ -871,7 +899,7 @@ pub fn diagnose(
     })
 }
 
-/// The candidates' SPEC §3 names, in library order.
+/// The candidates' names, in library order.
 pub fn candidate_names() -> Vec<&'static str> {
     Library::new().candidates.iter().map(|c| c.name).collect()
 }

@@ -79,12 +79,12 @@ pub fn bound(g: Group) -> f64 {
 /// The must-show items for a run carrying `truth_effects`.
 pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
     assert_eq!(rep.named, expect, "verdict: {}", rep.verdict);
-    for name in expect {
-        let truth = values_in(&cfg.effects, name).unwrap();
+    for (name, cand_name) in expect.iter().zip(&rep.named_candidates) {
         let cand = sinscal::diagnose::candidates::library()
             .into_iter()
-            .find(|c| c.name == *name)
+            .find(|c| c.name == cand_name && c.effect == *name)
             .unwrap();
+        let truth = values_in(&cfg.effects, cand.name).unwrap();
         for (p, t) in cand.params.iter().zip(truth) {
             let e = &rep.calibration.effects[&p.name];
             let z = (e.value - t) / e.sigma;
