@@ -58,7 +58,7 @@ pub fn calibrate_file(
     calib::estimate(&source, &run, opts, progress, cancel)
 }
 
-/// Diagnoses the run in `data` described by `meta` (issue 5): the one
+/// Diagnoses the run in `data` described by `meta`: the one
 /// function the CLI and the server call for the discrepancy workflow.
 pub fn diagnose_file(
     data: &Path,

@@ -1,6 +1,6 @@
 //! The estimator against simulated truths (SPEC runs made by `sim`).
 //!
-//! Reference scenario (issue 3): the seed paper's Table 1 truth,
+//! Reference scenario: the seed paper's Table 1 truth,
 //! `ten-position-9+9` with 600 s dwells, 100 Hz, ARW 0.0003 deg/√h,
 //! VRW 5 µg/√Hz. Bounds are the paper's Table 1 accuracies.
 

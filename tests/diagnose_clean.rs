@@ -1,9 +1,9 @@
-//! Issue 5, must show: on clean runs (ten seeds) nothing is named and
+//! On clean runs (ten seeds) nothing is named and
 //! the gap sits at the noise floor.
 
-mod common;
+mod diagnosis_support;
 
-use common::*;
+use diagnosis_support::*;
 use sinscal::model::Effects;
 
 #[test]

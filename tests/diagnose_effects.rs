@@ -1,11 +1,11 @@
-//! Issue 5, must show: each SPEC §3 effect at a realistic size is named
+//! Each SPEC §3 effect at a realistic size is named
 //! first, fitted within 3σ, the gap's excess over the noise shrinks by
 //! ≥ 90 % and ends within 1.2× the noise floor, and the 24 base
 //! parameters come back inside the paper's Table 1 bounds.
 
-mod common;
+mod diagnosis_support;
 
-use common::*;
+use diagnosis_support::*;
 use sinscal::model::effects::{BiasDrift, LeverArms};
 use sinscal::model::Effects;
 use sinscal::sim::Scheme;

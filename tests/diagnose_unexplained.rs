@@ -1,4 +1,4 @@
-//! Issue 5: never force a name.
+//! Never force a name.
 //!
 //! - A lever arm across the accelerometers' axes is still the SPEC
 //!   `accel_lever_arm`: the 6-parameter cross-axis candidate names it.
@@ -6,11 +6,11 @@
 //!   SPEC §3 effect, added to the records here) is outside the library:
 //!   the gap is significant and the verdict must say it is unexplained.
 
-mod common;
+mod diagnosis_support;
 
 use std::sync::atomic::AtomicBool;
 
-use common::*;
+use diagnosis_support::*;
 use sinscal::calib::sources::SimSource;
 use sinscal::calib::{CalibError, RecordSource, RunInfo};
 use sinscal::diagnose::{diagnose, DiagnoseOptions};

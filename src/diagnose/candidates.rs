@@ -1,5 +1,5 @@
 //! The library of candidate effects: every SPEC §3 effect, parameterised
-//! as the sizes suggest, with the size used to compute each
+//! as the realistic sizes suggest, with the size used to compute each
 //! parameter's signature through the simulator.
 
 use serde::{Deserialize, Serialize};

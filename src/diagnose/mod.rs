@@ -1,4 +1,4 @@
-//! The discrepancy workflow (issue 5): where do the measured run and a
+//! The discrepancy workflow: where do the measured run and a
 //! simulation of it from its own calibration disagree, which effect
 //! outside the 24-parameter model explains it, and how much of the gap
 //! is left once that effect is modelled.

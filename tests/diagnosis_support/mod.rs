@@ -76,7 +76,7 @@ pub fn bound(g: Group) -> f64 {
     }
 }
 
-/// The must-show items for a run carrying `truth_effects`.
+/// The workflow's acceptance criteria for a run carrying `truth_effects`.
 pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
     assert_eq!(rep.named, expect, "verdict: {}", rep.verdict);
     for (name, cand_name) in expect.iter().zip(&rep.named_candidates) {
