@@ -25,6 +25,27 @@ enum Command {
     /// Simulate a calibration run (SPEC §4–5): from a truth file, or from
     /// a scheme and a parameter set.
     Simulate(SimulateArgs),
+    /// Run the calibration server (HTTP API under /api/v1).
+    Serve(sinscal::server::ServeArgs),
+    /// Manage the server's bearer tokens.
+    #[command(subcommand)]
+    Token(TokenCommand),
+}
+
+#[derive(Subcommand)]
+enum TokenCommand {
+    /// Create a token and print it, alone on stdout, once (only its hash
+    /// is stored).
+    Create {
+        /// station (uploads), engineer (reads), admin (tokens, deletes).
+        #[arg(long)]
+        role: sinscal::store::Role,
+        #[arg(long, env = "SINSCAL_DATA_DIR", default_value = "./sinscal-data")]
+        data_dir: PathBuf,
+        /// A note naming the token's holder.
+        #[arg(long)]
+        label: Option<String>,
+    },
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -170,5 +191,11 @@ fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Simulate(a) => run_simulate(a),
+        Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
+        Command::Token(TokenCommand::Create { role, data_dir, label }) => {
+            let token = sinscal::server::create_token(&data_dir, role, label.as_deref())?;
+            println!("{token}");
+            Ok(())
+        }
     }
 }
