@@ -57,8 +57,14 @@ fn time_generation(label: &str, cfg: &SimConfig) {
 fn main() {
     // Memory must not grow with run length: the 1.7 h run first, then the
     // 3.2 h one; peak RSS is reported after each.
-    time_generation("ten-position (1.7 h)", &config("ten-position", Effects::none()));
-    time_generation("ten-position-9+9 (3.2 h)", &config("ten-position-9+9", Effects::none()));
+    time_generation(
+        "ten-position (1.7 h)",
+        &config("ten-position", Effects::none()),
+    );
+    time_generation(
+        "ten-position-9+9 (3.2 h)",
+        &config("ten-position-9+9", Effects::none()),
+    );
     let all_effects: Effects = serde_json::from_str(
         r#"{"accel_lever_arm": {"x": [50, 0, 0], "y": [0, 50, 0], "z": [0, 0, 50]},
             "gyro_g_sensitivity": [0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01],
@@ -66,7 +72,10 @@ fn main() {
             "gyro_scale_asymmetry": [50, 50, 50]}"#,
     )
     .unwrap();
-    time_generation("ten-position-9+9, all effects", &config("ten-position-9+9", all_effects));
+    time_generation(
+        "ten-position-9+9, all effects",
+        &config("ten-position-9+9", all_effects),
+    );
 
     let dir = std::env::temp_dir().join(format!("sinscal-bench-sim-{}", std::process::id()));
     for (format, gzip, label) in [
@@ -75,8 +84,14 @@ fn main() {
         (DataFormat::Csv, true, "csv.gz"),
     ] {
         let start = Instant::now();
-        let files = write_simulated_run(&config("ten-position-9+9", Effects::none()), &dir, format, gzip, "BENCH-1")
-            .unwrap();
+        let files = write_simulated_run(
+            &config("ten-position-9+9", Effects::none()),
+            &dir,
+            format,
+            gzip,
+            "BENCH-1",
+        )
+        .unwrap();
         let secs = start.elapsed().as_secs_f64();
         let bytes = std::fs::metadata(&files.data).map(|m| m.len()).unwrap_or(0);
         println!(

@@ -15,9 +15,9 @@ pub mod jobs;
 pub mod model;
 pub mod nav;
 pub mod pipeline;
+pub mod record;
 pub mod server;
 pub mod sim;
 pub mod store;
-pub mod record;
 
 pub use record::Record;

@@ -14,7 +14,11 @@ use sinscal::nav::Site;
 use sinscal::sim::{Noise, SchemeRef, SimConfig};
 
 #[derive(Parser)]
-#[command(name = "sinscal", version, about = "Calibration of strapdown inertial navigation systems")]
+#[command(
+    name = "sinscal",
+    version,
+    about = "Calibration of strapdown inertial navigation systems"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -192,7 +196,11 @@ fn main() -> anyhow::Result<()> {
     match cli.command {
         Command::Simulate(a) => run_simulate(a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
-        Command::Token(TokenCommand::Create { role, data_dir, label }) => {
+        Command::Token(TokenCommand::Create {
+            role,
+            data_dir,
+            label,
+        }) => {
             let token = sinscal::server::create_token(&data_dir, role, label.as_deref())?;
             println!("{token}");
             Ok(())

@@ -5,7 +5,9 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use crate::calib::{self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo};
+use crate::calib::{
+    self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo,
+};
 use crate::io::data::{DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::RunMetadata;
 use crate::record::Record;
@@ -19,10 +21,19 @@ pub struct FileSource {
 }
 
 impl RecordSource for FileSource {
-    fn records(&self) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
-        let reader = RecordReader::open_with_limits(&self.path, self.format, self.sample_rate_hz, self.limits)
-            .map_err(|e| CalibError::Source(e.to_string()))?;
-        Ok(Box::new(reader.map(|r| r.map_err(|e| CalibError::Source(e.to_string())))))
+    fn records(
+        &self,
+    ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
+        let reader = RecordReader::open_with_limits(
+            &self.path,
+            self.format,
+            self.sample_rate_hz,
+            self.limits,
+        )
+        .map_err(|e| CalibError::Source(e.to_string()))?;
+        Ok(Box::new(
+            reader.map(|r| r.map_err(|e| CalibError::Source(e.to_string()))),
+        ))
     }
 }
 

@@ -60,14 +60,23 @@ async fn five_runs_give_history_and_repeatability_matching_the_truths() {
             _ => (DataFormat::Csv, true),
         };
         let recorded_at = format!("2026-0{}-15T08:00:00Z", k + 1);
-        let run = simulate_run(&dir.path().join(k.to_string()), &cfg, format, gzip, serial, Some(&recorded_at));
+        let run = simulate_run(
+            &dir.path().join(k.to_string()),
+            &cfg,
+            format,
+            gzip,
+            serial,
+            Some(&recorded_at),
+        );
         let r = app.upload_run(serial, &run).await;
         assert_eq!(r.status(), StatusCode::ACCEPTED);
         let body: Value = r.json().await.unwrap();
         runs.push((body, run));
     }
     for (body, _) in &runs {
-        let job = app.wait_job(body["job_id"].as_str().unwrap(), Duration::from_secs(120)).await;
+        let job = app
+            .wait_job(body["job_id"].as_str().unwrap(), Duration::from_secs(120))
+            .await;
         assert_eq!(job["state"], "succeeded", "{job}");
         assert_eq!(job["attempts"], 1);
         assert_eq!(job["progress_percent"], 100.0);
@@ -80,8 +89,14 @@ async fn five_runs_give_history_and_repeatability_matching_the_truths() {
     assert_eq!(items.len(), 5);
     let mut estimates = vec![Vec::new(); PARAMETERS.len()];
     for (k, (item, (body, run))) in items.iter().zip(&runs).enumerate() {
-        assert_eq!(item["run_id"], body["run_id"], "history is in recorded_at order");
-        assert_eq!(item["run_time"], format!("2026-0{}-15T08:00:00.000Z", k + 1));
+        assert_eq!(
+            item["run_id"], body["run_id"],
+            "history is in recorded_at order"
+        );
+        assert_eq!(
+            item["run_time"],
+            format!("2026-0{}-15T08:00:00.000Z", k + 1)
+        );
         for (i, p) in PARAMETERS.iter().enumerate() {
             let e = &item["parameters"][p.name];
             let (value, sigma) = (e["value"].as_f64().unwrap(), e["sigma"].as_f64().unwrap());
@@ -99,7 +114,12 @@ async fn five_runs_give_history_and_repeatability_matching_the_truths() {
         assert!(!result["convergence"]["t"].as_array().unwrap().is_empty());
     }
     // Date filters and pagination.
-    let page = app.history(serial, "?from=2026-02-01&to=2026-04-01T00:00:00Z&limit=1&offset=1").await;
+    let page = app
+        .history(
+            serial,
+            "?from=2026-02-01&to=2026-04-01T00:00:00Z&limit=1&offset=1",
+        )
+        .await;
     assert_eq!(page["total"], 2);
     assert_eq!(page["items"][0]["run_id"], runs[2].0["run_id"]);
 
@@ -114,12 +134,25 @@ async fn five_runs_give_history_and_repeatability_matching_the_truths() {
         assert_eq!(s["name"], p.name, "canonical order");
         let (mean, std) = mean_std(&estimates[i]);
         assert!(close(s["mean"].as_f64().unwrap(), mean), "{}: {s}", p.name);
-        assert!(close(s["std_dev"].as_f64().unwrap(), std), "{}: {s}", p.name);
-        let (min, max) = estimates[i].iter().fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(
+            close(s["std_dev"].as_f64().unwrap(), std),
+            "{}: {s}",
+            p.name
+        );
+        let (min, max) = estimates[i]
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
         assert!(close(s["min"].as_f64().unwrap(), min) && close(s["max"].as_f64().unwrap(), max));
         assert!(close(s["range"].as_f64().unwrap(), max - min));
-        let change = estimates[i].windows(2).map(|w| (w[1] - w[0]).abs()).fold(0.0, f64::max);
-        assert!(close(s["max_change"].as_f64().unwrap(), change), "{}: {s} vs {change}", p.name);
+        let change = estimates[i]
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            close(s["max_change"].as_f64().unwrap(), change),
+            "{}: {s} vs {change}",
+            p.name
+        );
 
         let truths: Vec<f64> = runs.iter().map(|(_, r)| r.truth.canonical(i)).collect();
         let (t_mean, t_std) = mean_std(&truths);
@@ -127,12 +160,25 @@ async fn five_runs_give_history_and_repeatability_matching_the_truths() {
             .iter()
             .map(|it| it["parameters"][p.name]["sigma"].as_f64().unwrap())
             .fold(0.0, f64::max);
-        assert!((mean - t_mean).abs() < Z_MAX * sigma, "{}: mean {mean} vs truths' {t_mean}", p.name);
-        assert!((std - t_std).abs() < Z_MAX * sigma, "{}: std {std} vs truths' {t_std}", p.name);
+        assert!(
+            (mean - t_mean).abs() < Z_MAX * sigma,
+            "{}: mean {mean} vs truths' {t_mean}",
+            p.name
+        );
+        assert!(
+            (std - t_std).abs() < Z_MAX * sigma,
+            "{}: std {std} vs truths' {t_std}",
+            p.name
+        );
     }
     // Tolerances (set below): 1 ppm on gyro_scale_x, whose truths spread
     // by ±25 ppm, is exceeded; 1 deg/h on gyro_bias_x is not.
-    let flagged: Vec<&str> = rep["flagged"].as_array().unwrap().iter().map(|v| v.as_str().unwrap()).collect();
+    let flagged: Vec<&str> = rep["flagged"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
     assert!(flagged.contains(&"gyro_scale_x"), "{flagged:?}");
     assert!(!flagged.contains(&"gyro_bias_x"), "{flagged:?}");
     assert_eq!(params[3]["tolerance"], 1.0);
@@ -150,7 +196,12 @@ async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
     let runs: Vec<SimRun> = (0..8u64)
         .map(|k| {
             let serial = format!("RLG-{:04}", 100 + k % 3);
-            short_run(&dir.path().join(k.to_string()), 50 + k, DataFormat::F64le, &serial)
+            short_run(
+                &dir.path().join(k.to_string()),
+                50 + k,
+                DataFormat::F64le,
+                &serial,
+            )
         })
         .collect();
     let station = app.create_token("station").await;
@@ -159,7 +210,12 @@ async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
         async move {
             let serial = format!("RLG-{:04}", 100 + k as u64 % 3);
             let r = app
-                .upload_multipart(station, &serial, &run.metadata, std::fs::read(&run.data).unwrap())
+                .upload_multipart(
+                    station,
+                    &serial,
+                    &run.metadata,
+                    std::fs::read(&run.data).unwrap(),
+                )
                 .await;
             assert_eq!(r.status(), StatusCode::ACCEPTED);
             r.json::<Value>().await.unwrap()
@@ -167,17 +223,30 @@ async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
     });
     let answers = futures_util::future::join_all(uploads).await;
     for a in &answers {
-        let job = app.wait_job(a["job_id"].as_str().unwrap(), Duration::from_secs(120)).await;
+        let job = app
+            .wait_job(a["job_id"].as_str().unwrap(), Duration::from_secs(120))
+            .await;
         assert_eq!(job["state"], "succeeded", "{job}");
         assert_eq!(job["attempts"], 1, "claimed once: {job}");
     }
     let units = app.units().await;
     assert_eq!(units["total"], 3);
-    let total: i64 = units["items"].as_array().unwrap().iter().map(|u| u["calibrated"].as_i64().unwrap()).sum();
+    let total: i64 = units["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| u["calibrated"].as_i64().unwrap())
+        .sum();
     assert_eq!(total, 8, "one result per run");
     let metrics = app.metrics().await;
-    assert!(metrics.contains("sinscal_jobs{state=\"succeeded\"} 8"), "{metrics}");
-    assert!(metrics.contains("sinscal_job_duration_seconds_count{outcome=\"succeeded\"} 8"), "{metrics}");
+    assert!(
+        metrics.contains("sinscal_jobs{state=\"succeeded\"} 8"),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("sinscal_job_duration_seconds_count{outcome=\"succeeded\"} 8"),
+        "{metrics}"
+    );
     assert!(metrics.contains("sinscal_queue_depth 0"));
     app.stop().await;
 }

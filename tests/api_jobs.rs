@@ -45,11 +45,22 @@ async fn a_running_job_can_be_cancelled() {
     assert_eq!(r.status(), StatusCode::OK);
     assert_eq!(r.json::<Value>().await.unwrap()["cancel_requested"], true);
     let outcome = step.await.unwrap();
-    assert_eq!(outcome, Outcome::Ran { job_id: job_id.clone(), end: JobEnd::Cancelled });
+    assert_eq!(
+        outcome,
+        Outcome::Ran {
+            job_id: job_id.clone(),
+            end: JobEnd::Cancelled
+        }
+    );
     let job = app.get_job(&job_id).await;
     assert_eq!(job["state"], "cancelled");
     assert!(job["finished_at"].is_string());
-    let r = app.get(&app.admin, &format!("/runs/{}/result", run["run_id"].as_str().unwrap())).await;
+    let r = app
+        .get(
+            &app.admin,
+            &format!("/runs/{}/result", run["run_id"].as_str().unwrap()),
+        )
+        .await;
     assert_eq!(problem(r).await.0, StatusCode::CONFLICT);
     app.stop().await;
 }
@@ -76,8 +87,14 @@ async fn failed_attempts_retry_up_to_the_limit_and_keep_their_error() {
     let job = app.get_job(&job_id).await;
     assert_eq!(job["state"], "failed");
     assert_eq!(job["attempts"], 3);
-    assert!(job["error"].as_str().unwrap().contains("cannot open"), "{job}");
-    assert_eq!(app.runner.try_run_next_job(0).await.unwrap(), Outcome::Empty);
+    assert!(
+        job["error"].as_str().unwrap().contains("cannot open"),
+        "{job}"
+    );
+    assert_eq!(
+        app.runner.try_run_next_job(0).await.unwrap(),
+        Outcome::Empty
+    );
     app.stop().await;
 }
 
@@ -90,7 +107,12 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
     let job_id = r["job_id"].as_str().unwrap().to_string();
 
     // Worker A claims with a lease that runs out at once (it stalled).
-    let a = app.store.claim_job("worker-a", Duration::from_millis(1)).await.unwrap().unwrap();
+    let a = app
+        .store
+        .claim_job("worker-a", Duration::from_millis(1))
+        .await
+        .unwrap()
+        .unwrap();
     tokio::time::sleep(Duration::from_millis(20)).await;
     // Worker B reclaims the expired job and finishes it.
     match app.runner.try_run_next_job(1).await.unwrap() {
@@ -102,8 +124,18 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
     let mut fake = sinscal::calib::CalibrationResult::default();
     fake.estimator = "stale".into();
     assert!(!app.store.complete_job(&a, &fake).await.unwrap());
-    assert!(app.store.heartbeat(&a.fence, Duration::from_secs(30), 0.5, "x").await.unwrap().is_none());
-    assert!(app.store.fail_job(&a.fence, "stale", true, Duration::ZERO).await.unwrap().is_none());
+    assert!(app
+        .store
+        .heartbeat(&a.fence, Duration::from_secs(30), 0.5, "x")
+        .await
+        .unwrap()
+        .is_none());
+    assert!(app
+        .store
+        .fail_job(&a.fence, "stale", true, Duration::ZERO)
+        .await
+        .unwrap()
+        .is_none());
     assert!(!app.store.release_job(&a.fence).await.unwrap());
     assert!(!app.store.finish_cancelled(&a.fence).await.unwrap());
     let job = app.get_job(&job_id).await;
@@ -118,7 +150,9 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     let data = tempfile::tempdir().unwrap();
     let mut config = test_config(data.path(), 1);
     config.shutdown_grace = Duration::from_millis(0);
-    let app = sinscal::server::Application::build(config.clone()).await.unwrap();
+    let app = sinscal::server::Application::build(config.clone())
+        .await
+        .unwrap();
     let admin = app.first_admin_token().unwrap().to_string();
     let base = format!("http://{}/api/v1", app.addr());
     let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
@@ -130,8 +164,14 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0042", None);
     let http = reqwest::Client::new();
     let form = reqwest::multipart::Form::new()
-        .part("metadata", reqwest::multipart::Part::bytes(run.metadata.clone()))
-        .part("data", reqwest::multipart::Part::bytes(std::fs::read(&run.data).unwrap()));
+        .part(
+            "metadata",
+            reqwest::multipart::Part::bytes(run.metadata.clone()),
+        )
+        .part(
+            "data",
+            reqwest::multipart::Part::bytes(std::fs::read(&run.data).unwrap()),
+        );
     let r: Value = http
         .post(format!("{base}/units/RLG-0042/runs"))
         .bearer_auth(&admin)
@@ -144,7 +184,15 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
         .unwrap();
     let job_url = format!("{base}/jobs/{}", r["job_id"].as_str().unwrap());
     loop {
-        let job: Value = http.get(&job_url).bearer_auth(&admin).send().await.unwrap().json().await.unwrap();
+        let job: Value = http
+            .get(&job_url)
+            .bearer_auth(&admin)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
         if job["state"] == "running" {
             break;
         }
@@ -156,12 +204,19 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     // Handed back: queued again, the interrupted attempt not counted.
     let app = sinscal::server::Application::build(config).await.unwrap();
     let store = app.store();
-    let job = store.get_job(r["job_id"].as_str().unwrap()).await.unwrap().unwrap();
+    let job = store
+        .get_job(r["job_id"].as_str().unwrap())
+        .await
+        .unwrap()
+        .unwrap();
     assert_eq!(job.state, "queued");
     assert_eq!(job.attempts, 0);
-    assert_eq!(app.runner().try_run_next_job(0).await.unwrap(), Outcome::Ran {
-        job_id: job.id.clone(),
-        end: JobEnd::Succeeded
-    });
+    assert_eq!(
+        app.runner().try_run_next_job(0).await.unwrap(),
+        Outcome::Ran {
+            job_id: job.id.clone(),
+            end: JobEnd::Succeeded
+        }
+    );
     assert_eq!(store.get_job(&job.id).await.unwrap().unwrap().attempts, 1);
 }

@@ -34,7 +34,13 @@ fn start(data: &Path, log: &Path, extra: &[&str]) -> (Server, Option<String>) {
         .arg(data)
         .args(extra)
         .stdout(Stdio::piped())
-        .stderr(std::fs::OpenOptions::new().create(true).append(true).open(log).unwrap())
+        .stderr(
+            std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(log)
+                .unwrap(),
+        )
         .spawn()
         .expect("start sinscal serve");
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
@@ -71,21 +77,48 @@ impl Server {
 }
 
 async fn get_json(http: &reqwest::Client, token: &str, url: &str) -> Value {
-    http.get(url).bearer_auth(token).send().await.unwrap().json().await.unwrap()
+    http.get(url)
+        .bearer_auth(token)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap()
 }
 
-async fn upload(http: &reqwest::Client, base: &str, token: &str, serial: &str, meta: &[u8], data: Vec<u8>) -> reqwest::Result<reqwest::Response> {
+async fn upload(
+    http: &reqwest::Client,
+    base: &str,
+    token: &str,
+    serial: &str,
+    meta: &[u8],
+    data: Vec<u8>,
+) -> reqwest::Result<reqwest::Response> {
     let form = reqwest::multipart::Form::new()
         .part("metadata", reqwest::multipart::Part::bytes(meta.to_vec()))
         .part("data", reqwest::multipart::Part::bytes(data));
-    http.post(format!("{base}/units/{serial}/runs")).bearer_auth(token).multipart(form).send().await
+    http.post(format!("{base}/units/{serial}/runs"))
+        .bearer_auth(token)
+        .multipart(form)
+        .send()
+        .await
 }
 
-async fn wait_final(http: &reqwest::Client, token: &str, base: &str, job_id: &str, timeout: Duration) -> Value {
+async fn wait_final(
+    http: &reqwest::Client,
+    token: &str,
+    base: &str,
+    job_id: &str,
+    timeout: Duration,
+) -> Value {
     let start = Instant::now();
     loop {
         let job = get_json(http, token, &format!("{base}/jobs/{job_id}")).await;
-        if matches!(job["state"].as_str(), Some("succeeded" | "failed" | "cancelled")) {
+        if matches!(
+            job["state"].as_str(),
+            Some("succeeded" | "failed" | "cancelled")
+        ) {
             return job;
         }
         assert!(start.elapsed() < timeout, "job {job_id} not done: {job}");
@@ -105,29 +138,55 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = sim_config(5, ErrorParameters::paper(), "ten-position-9+9", 600.0);
     let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0042", None);
-    let r: Value = upload(&http, &server.base, &token, "RLG-0042", &run.metadata, std::fs::read(&run.data).unwrap())
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap();
+    let r: Value = upload(
+        &http,
+        &server.base,
+        &token,
+        "RLG-0042",
+        &run.metadata,
+        std::fs::read(&run.data).unwrap(),
+    )
+    .await
+    .unwrap()
+    .json()
+    .await
+    .unwrap();
     let job_url = format!("{}/jobs/{}", server.base, r["job_id"].as_str().unwrap());
     loop {
         let job = get_json(&http, &token, &job_url).await;
         if job["state"] == "running" {
             break;
         }
-        assert_eq!(job["state"], "queued", "the job ended before the kill: {job}");
+        assert_eq!(
+            job["state"], "queued",
+            "the job ended before the kill: {job}"
+        );
         tokio::time::sleep(Duration::from_millis(5)).await;
     }
     server.sigkill();
 
     let (server, again) = start(data.path(), &log, &args);
     assert!(again.is_none(), "tokens survive a restart");
-    let job = wait_final(&http, &token, &server.base, r["job_id"].as_str().unwrap(), Duration::from_secs(120)).await;
+    let job = wait_final(
+        &http,
+        &token,
+        &server.base,
+        r["job_id"].as_str().unwrap(),
+        Duration::from_secs(120),
+    )
+    .await;
     assert_eq!(job["state"], "succeeded", "{job}");
     assert_eq!(job["attempts"], 2, "the killed attempt counts: {job}");
-    let result = get_json(&http, &token, &format!("{}/runs/{}/result", server.base, r["run_id"].as_str().unwrap())).await;
+    let result = get_json(
+        &http,
+        &token,
+        &format!(
+            "{}/runs/{}/result",
+            server.base,
+            r["run_id"].as_str().unwrap()
+        ),
+    )
+    .await;
     server.sigterm();
 
     // The same result as calibrating the file directly.
@@ -147,7 +206,10 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
         let got = &result["parameters"][name];
         for (field, want) in [("value", p.value), ("sigma", p.sigma)] {
             let v = got[field].as_f64().unwrap();
-            assert!((v - want).abs() <= 1e-12 * want.abs(), "{name}.{field}: {v} vs {want}");
+            assert!(
+                (v - want).abs() <= 1e-12 * want.abs(),
+                "{name}.{field}: {v} vs {want}"
+            );
         }
     }
 }
@@ -167,7 +229,14 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
     let data = tempfile::tempdir().unwrap();
     let logs = tempfile::tempdir().unwrap();
     let log = logs.path().join("server.log");
-    let args = ["--workers", "2", "--lease-secs", "1", "--max-attempts", "50"];
+    let args = [
+        "--workers",
+        "2",
+        "--lease-secs",
+        "1",
+        "--max-attempts",
+        "50",
+    ];
     let dir = tempfile::tempdir().unwrap();
     let base_run = short_run(dir.path(), 21, DataFormat::Csv, "RLG-0042");
     let base_csv = std::fs::read(&base_run.data).unwrap();
@@ -186,8 +255,13 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         let stop = Arc::new(AtomicBool::new(false));
         let mut clients = Vec::new();
         for _ in 0..CLIENTS {
-            let (http, base, token, stop, acked) =
-                (http.clone(), server.base.clone(), token.clone(), stop.clone(), acked.clone());
+            let (http, base, token, stop, acked) = (
+                http.clone(),
+                server.base.clone(),
+                token.clone(),
+                stop.clone(),
+                acked.clone(),
+            );
             let first = next_upload;
             next_upload += 1000;
             let base_csv = base_csv.clone();
@@ -245,7 +319,10 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         for c in clients {
             refused_in_flight += c.await.unwrap();
         }
-        eprintln!("round {round}: killed after {wait:?}, {} acknowledged so far", acked.lock().unwrap().len());
+        eprintln!(
+            "round {round}: killed after {wait:?}, {} acknowledged so far",
+            acked.lock().unwrap().len()
+        );
     }
 
     // A last start drains the queue.
@@ -253,55 +330,105 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
     let (server, _) = start(data.path(), &log, &args);
     let acked = acked.lock().unwrap().clone();
     for a in &acked {
-        let job = wait_final(&http, &token, &server.base, &a.job_id, Duration::from_secs(300)).await;
+        let job = wait_final(
+            &http,
+            &token,
+            &server.base,
+            &a.job_id,
+            Duration::from_secs(300),
+        )
+        .await;
         assert_eq!(job["state"], "succeeded", "{job}");
     }
     let all_done = Instant::now();
     loop {
-        let m = http.get(format!("{}/metrics", server.base)).bearer_auth(&token).send().await.unwrap().text().await.unwrap();
-        if m.contains("sinscal_jobs{state=\"queued\"} 0") && m.contains("sinscal_jobs{state=\"running\"} 0") {
+        let m = http
+            .get(format!("{}/metrics", server.base))
+            .bearer_auth(&token)
+            .send()
+            .await
+            .unwrap()
+            .text()
+            .await
+            .unwrap();
+        if m.contains("sinscal_jobs{state=\"queued\"} 0")
+            && m.contains("sinscal_jobs{state=\"running\"} 0")
+        {
             break;
         }
-        assert!(all_done.elapsed() < Duration::from_secs(300), "queue never drained: {m}");
+        assert!(
+            all_done.elapsed() < Duration::from_secs(300),
+            "queue never drained: {m}"
+        );
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
     server.sigterm();
 
     // Inspect what is on disk.
-    let db = sqlx::SqlitePool::connect(&format!("sqlite://{}?mode=ro", data.path().join("sinscal.db").display()))
-        .await
-        .unwrap();
-    let runs: Vec<(String, String, String, String)> = sqlx::query("SELECT r.id, r.sha256, r.blob_path, j.state FROM runs r JOIN jobs j ON j.run_id = r.id")
-        .fetch_all(&db)
-        .await
-        .unwrap()
-        .into_iter()
-        .map(|r| (r.get(0), r.get(1), r.get(2), r.get(3)))
-        .collect();
-    let by_id: HashMap<&str, &(String, String, String, String)> = runs.iter().map(|r| (r.0.as_str(), r)).collect();
+    let db = sqlx::SqlitePool::connect(&format!(
+        "sqlite://{}?mode=ro",
+        data.path().join("sinscal.db").display()
+    ))
+    .await
+    .unwrap();
+    let runs: Vec<(String, String, String, String)> = sqlx::query(
+        "SELECT r.id, r.sha256, r.blob_path, j.state FROM runs r JOIN jobs j ON j.run_id = r.id",
+    )
+    .fetch_all(&db)
+    .await
+    .unwrap()
+    .into_iter()
+    .map(|r| (r.get(0), r.get(1), r.get(2), r.get(3)))
+    .collect();
+    let by_id: HashMap<&str, &(String, String, String, String)> =
+        runs.iter().map(|r| (r.0.as_str(), r)).collect();
     for a in &acked {
-        let row = by_id.get(a.run_id.as_str()).unwrap_or_else(|| panic!("acknowledged run {} lost", a.run_id));
+        let row = by_id
+            .get(a.run_id.as_str())
+            .unwrap_or_else(|| panic!("acknowledged run {} lost", a.run_id));
         assert_eq!(row.1, a.sha256, "stored hash of {}", a.run_id);
         let bytes = std::fs::read(data.path().join(&row.2)).unwrap();
         assert_eq!(sha256_hex(&bytes), a.sha256, "bytes of {}", a.run_id);
     }
-    let jobs_total: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs").fetch_one(&db).await.unwrap();
+    let jobs_total: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs")
+        .fetch_one(&db)
+        .await
+        .unwrap();
     assert_eq!(jobs_total as usize, runs.len(), "one job per run");
     for r in &runs {
         assert_eq!(r.3, "succeeded", "every stored run's job finished: {r:?}");
     }
-    let results: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM results").fetch_one(&db).await.unwrap();
+    let results: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM results")
+        .fetch_one(&db)
+        .await
+        .unwrap();
     assert_eq!(results as usize, runs.len(), "exactly one result per job");
-    let params: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM result_params").fetch_one(&db).await.unwrap();
+    let params: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM result_params")
+        .fetch_one(&db)
+        .await
+        .unwrap();
     assert_eq!(params as usize, 24 * runs.len());
-    let max_attempts: i64 = sqlx::query_scalar("SELECT MAX(attempts) FROM jobs").fetch_one(&db).await.unwrap();
-    let retried: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE attempts > 1").fetch_one(&db).await.unwrap();
-    let dup: i64 = sqlx::query_scalar("SELECT COUNT(*) - COUNT(DISTINCT sha256) FROM runs").fetch_one(&db).await.unwrap();
+    let max_attempts: i64 = sqlx::query_scalar("SELECT MAX(attempts) FROM jobs")
+        .fetch_one(&db)
+        .await
+        .unwrap();
+    let retried: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE attempts > 1")
+        .fetch_one(&db)
+        .await
+        .unwrap();
+    let dup: i64 = sqlx::query_scalar("SELECT COUNT(*) - COUNT(DISTINCT sha256) FROM runs")
+        .fetch_one(&db)
+        .await
+        .unwrap();
     assert_eq!(dup, 0);
 
     // Files: nothing partial, nothing without a row, nothing missing.
     let runs_dir = data.path().join("runs");
-    assert_eq!(std::fs::read_dir(runs_dir.join("tmp")).unwrap().count(), 0, "partial uploads left");
+    assert_eq!(
+        std::fs::read_dir(runs_dir.join("tmp")).unwrap().count(),
+        0,
+        "partial uploads left"
+    );
     let expected: HashSet<PathBuf> = runs.iter().map(|r| data.path().join(&r.2)).collect();
     let mut found = HashSet::new();
     for shard in std::fs::read_dir(&runs_dir).unwrap() {

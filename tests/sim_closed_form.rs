@@ -79,7 +79,10 @@ fn turn_about_y_matches_closed_form_with_paper_errors() {
     let dt = 1.0 / RATE_HZ;
     let mut checked = 0;
     // Cruise lasts from t = 1.5 to 10.0 s.
-    for r in recs.iter().filter(|r| r.t > 1.5 + 1e-9 && r.t < 10.0 - 1e-9) {
+    for r in recs
+        .iter()
+        .filter(|r| r.t > 1.5 + 1e-9 && r.t < 10.0 - 1e-9)
+    {
         let (ta, tb) = (cruise_angle(r.t - dt, 1.0), cruise_angle(r.t, 1.0));
         // C_b^n = R_y(θ): f^b = [−g sinθ, 0, g cosθ],
         // ω_ib^b = [−ω_U sinθ, ω_N + Ω, ω_U cosθ].
@@ -104,7 +107,11 @@ fn turn_about_y_matches_closed_form_with_paper_errors() {
 
 #[test]
 fn dwell_records_are_the_resting_values() {
-    let recs = records(&config(one_turn(Axis::Z, 90.0, 2.0), ErrorParameters::zero(), Effects::none()));
+    let recs = records(&config(
+        one_turn(Axis::Z, 90.0, 2.0),
+        ErrorParameters::zero(),
+        Effects::none(),
+    ));
     let (w_n, w_u) = earth();
     let g = site().gravity();
     let dt = 0.01;
@@ -127,7 +134,11 @@ fn dwell_records_are_the_resting_values() {
 /// The difference an effect makes to each record: records with it minus
 /// records without.
 fn effect_delta(scheme: Scheme, effects: Effects) -> Vec<(f64, Vector3<f64>, Vector3<f64>)> {
-    let base = records(&config(scheme.clone(), ErrorParameters::zero(), Effects::none()));
+    let base = records(&config(
+        scheme.clone(),
+        ErrorParameters::zero(),
+        Effects::none(),
+    ));
     let with = records(&config(scheme, ErrorParameters::zero(), effects));
     base.iter()
         .zip(with.iter())
@@ -213,7 +224,10 @@ fn accel_delay_shifts_the_accelerometer_interval() {
     assert!((with[0].dv[2] - g * dt).abs() < 1e-15);
     let mut checked = 0;
     for r in with.iter().filter(|r| r.t > 1.6 && r.t < 9.9) {
-        let (ta, tb) = (cruise_angle(r.t - dt - tau, 1.0), cruise_angle(r.t - tau, 1.0));
+        let (ta, tb) = (
+            cruise_angle(r.t - dt - tau, 1.0),
+            cruise_angle(r.t - tau, 1.0),
+        );
         let dv_x = -g * (ta.cos() - tb.cos()) / om;
         let dv_z = g * (tb.sin() - ta.sin()) / om;
         assert!((r.dv[0] - dv_x).abs() < 1e-13, "t={}", r.t);
@@ -265,9 +279,14 @@ fn scale_asymmetry_integrates_the_rate_magnitude_across_a_zero() {
     let int_abs_x = w_n * ((ta.cos() + 1.0) + (tb.cos() + 1.0)) / om;
     let int_abs_y = w_n * (ta.sin() - tb.sin()).abs() / om;
     let int_abs_z = (w_u + om) * dt;
-    let expect = Vector3::new(int_abs_x, int_abs_y, int_abs_z).component_mul(&(Vector3::from(a) * PPM));
+    let expect =
+        Vector3::new(int_abs_x, int_abs_y, int_abs_z).component_mul(&(Vector3::from(a) * PPM));
     // Rounding of the 1.7e-3 rad records the delta is taken between.
-    assert!((rec.1 - expect).abs().max() < 1e-17, "{:?} vs {expect:?}", rec.1);
+    assert!(
+        (rec.1 - expect).abs().max() < 1e-17,
+        "{:?} vs {expect:?}",
+        rec.1
+    );
     // At rest: A_i |ω_i| Δt with the nominal attitude's Earth rate.
     let first = deltas[0].1;
     assert!((first.y - a[1] * PPM * w_n * dt).abs() < 1e-22);

@@ -52,7 +52,11 @@ fn nine_plus_nine() -> Scheme {
 #[test]
 fn error_free_nine_plus_nine_run_navigates_to_the_scheme_attitude() {
     let out = navigate(nine_plus_nine(), ErrorParameters::zero(), [0.0; 3], 100.0);
-    assert!(out.attitude_error_arcsec < 0.01, "attitude {} arcsec", out.attitude_error_arcsec);
+    assert!(
+        out.attitude_error_arcsec < 0.01,
+        "attitude {} arcsec",
+        out.attitude_error_arcsec
+    );
     // The contract asks < 1 mm/s; the mechanization holds ~5 µm/s, so a
     // tenth of the contract catches a regression long before it matters.
     assert!(out.max_speed_mps < 1e-4, "speed {} m/s", out.max_speed_mps);
@@ -66,8 +70,17 @@ fn error_free_nine_plus_nine_run_navigates_to_the_scheme_attitude() {
 fn paper_errors_compensated_exactly_navigate_like_error_free() {
     // Tilted and turned start: the simulator and strapdown must not rely on
     // the nominal attitude.
-    let out = navigate(nine_plus_nine(), ErrorParameters::paper(), [3.0, -2.0, 40.0], 100.0);
-    assert!(out.attitude_error_arcsec < 0.01, "attitude {} arcsec", out.attitude_error_arcsec);
+    let out = navigate(
+        nine_plus_nine(),
+        ErrorParameters::paper(),
+        [3.0, -2.0, 40.0],
+        100.0,
+    );
+    assert!(
+        out.attitude_error_arcsec < 0.01,
+        "attitude {} arcsec",
+        out.attitude_error_arcsec
+    );
     // The contract asks < 1 mm/s; the mechanization holds ~5 µm/s, so a
     // tenth of the contract catches a regression long before it matters.
     assert!(out.max_speed_mps < 1e-4, "speed {} m/s", out.max_speed_mps);
@@ -92,8 +105,17 @@ fn navigation_axis_and_negative_turns_at_an_odd_rate() {
     )
     .unwrap();
     // 37 Hz: breakpoints fall inside records.
-    let out = navigate(scheme.resolve(None).unwrap(), ErrorParameters::paper(), [0.5, 0.5, -120.0], 37.0);
-    assert!(out.attitude_error_arcsec < 0.01, "attitude {} arcsec", out.attitude_error_arcsec);
+    let out = navigate(
+        scheme.resolve(None).unwrap(),
+        ErrorParameters::paper(),
+        [0.5, 0.5, -120.0],
+        37.0,
+    );
+    assert!(
+        out.attitude_error_arcsec < 0.01,
+        "attitude {} arcsec",
+        out.attitude_error_arcsec
+    );
     // The contract asks < 1 mm/s; the mechanization holds ~5 µm/s, so a
     // tenth of the contract catches a regression long before it matters.
     assert!(out.max_speed_mps < 1e-4, "speed {} m/s", out.max_speed_mps);

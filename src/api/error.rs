@@ -141,22 +141,60 @@ impl IntoResponse for ApiError {
     fn into_response(self) -> Response {
         let detail = self.to_string();
         match self {
-            ApiError::BadRequest(_) => render(StatusCode::BAD_REQUEST, "about:blank", "Bad Request", detail, None),
+            ApiError::BadRequest(_) => render(
+                StatusCode::BAD_REQUEST,
+                "about:blank",
+                "Bad Request",
+                detail,
+                None,
+            ),
             ApiError::Unauthenticated => {
-                let mut r = render(StatusCode::UNAUTHORIZED, "about:blank", "Unauthorized", detail, None);
+                let mut r = render(
+                    StatusCode::UNAUTHORIZED,
+                    "about:blank",
+                    "Unauthorized",
+                    detail,
+                    None,
+                );
                 r.headers_mut()
                     .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
                 r
             }
-            ApiError::Forbidden(_) => render(StatusCode::FORBIDDEN, "about:blank", "Forbidden", detail, None),
-            ApiError::NotFound(_) => render(StatusCode::NOT_FOUND, "about:blank", "Not Found", detail, None),
-            ApiError::MethodNotAllowed => {
-                render(StatusCode::METHOD_NOT_ALLOWED, "about:blank", "Method Not Allowed", detail, None)
-            }
-            ApiError::Conflict(_) => render(StatusCode::CONFLICT, "about:blank", "Conflict", detail, None),
-            ApiError::PayloadTooLarge(_) => {
-                render(StatusCode::PAYLOAD_TOO_LARGE, "about:blank", "Payload Too Large", detail, None)
-            }
+            ApiError::Forbidden(_) => render(
+                StatusCode::FORBIDDEN,
+                "about:blank",
+                "Forbidden",
+                detail,
+                None,
+            ),
+            ApiError::NotFound(_) => render(
+                StatusCode::NOT_FOUND,
+                "about:blank",
+                "Not Found",
+                detail,
+                None,
+            ),
+            ApiError::MethodNotAllowed => render(
+                StatusCode::METHOD_NOT_ALLOWED,
+                "about:blank",
+                "Method Not Allowed",
+                detail,
+                None,
+            ),
+            ApiError::Conflict(_) => render(
+                StatusCode::CONFLICT,
+                "about:blank",
+                "Conflict",
+                detail,
+                None,
+            ),
+            ApiError::PayloadTooLarge(_) => render(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                "about:blank",
+                "Payload Too Large",
+                detail,
+                None,
+            ),
             ApiError::InvalidMetadata(_) => render(
                 StatusCode::UNPROCESSABLE_ENTITY,
                 "urn:sinscal:problem:invalid-metadata",
@@ -170,13 +208,27 @@ impl IntoResponse for ApiError {
                     Position::Record { number, .. } => ProblemPosition::Record(number),
                 });
                 let (status, title) = match e {
-                    DataError::TooLarge { .. } => (StatusCode::PAYLOAD_TOO_LARGE, "Run data too large"),
+                    DataError::TooLarge { .. } => {
+                        (StatusCode::PAYLOAD_TOO_LARGE, "Run data too large")
+                    }
                     _ => (StatusCode::UNPROCESSABLE_ENTITY, "Invalid run data"),
                 };
-                render(status, "urn:sinscal:problem:invalid-data", title, detail, at)
+                render(
+                    status,
+                    "urn:sinscal:problem:invalid-data",
+                    title,
+                    detail,
+                    at,
+                )
             }
             ApiError::Unavailable { retry_after_s, .. } => {
-                let mut r = render(StatusCode::SERVICE_UNAVAILABLE, "about:blank", "Service Unavailable", detail, None);
+                let mut r = render(
+                    StatusCode::SERVICE_UNAVAILABLE,
+                    "about:blank",
+                    "Service Unavailable",
+                    detail,
+                    None,
+                );
                 r.headers_mut()
                     .insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
                 r

@@ -90,7 +90,10 @@ async fn cancel_job(
         .await?
         .ok_or_else(|| ApiError::NotFound(format!("no job {id}")))?;
     if job.state == "succeeded" || job.state == "failed" {
-        return Err(ApiError::Conflict(format!("job {id} has already {}", job.state)));
+        return Err(ApiError::Conflict(format!(
+            "job {id} has already {}",
+            job.state
+        )));
     }
     Ok(Json(job.into()))
 }

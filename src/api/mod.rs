@@ -90,7 +90,10 @@ async fn ensure_problem(resp: Response) -> Response {
         return resp;
     }
     let (parts, _) = resp.into_parts();
-    let mut fixed = problem_response(status, status.canonical_reason().unwrap_or("error").to_string());
+    let mut fixed = problem_response(
+        status,
+        status.canonical_reason().unwrap_or("error").to_string(),
+    );
     for (name, value) in parts.headers.iter() {
         if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH {
             fixed.headers_mut().insert(name.clone(), value.clone());
@@ -139,7 +142,10 @@ async fn readyz(State(st): State<AppState>) -> Response {
         Ok(()) => Json(serde_json::json!({"status": "ready"})).into_response(),
         Err(e) => {
             tracing::error!(error = %e, "readiness: database");
-            problem_response(StatusCode::SERVICE_UNAVAILABLE, "database unavailable".into())
+            problem_response(
+                StatusCode::SERVICE_UNAVAILABLE,
+                "database unavailable".into(),
+            )
         }
     }
 }
@@ -148,7 +154,10 @@ async fn metrics(State(st): State<AppState>, auth: Auth) -> Result<Response, Api
     auth.require(roles::ENGINEER)?;
     let counts = st.store.job_counts().await?;
     Ok((
-        [(header::CONTENT_TYPE, "text/plain; version=0.0.4; charset=utf-8")],
+        [(
+            header::CONTENT_TYPE,
+            "text/plain; version=0.0.4; charset=utf-8",
+        )],
         st.metrics.render(&counts),
     )
         .into_response())

@@ -32,7 +32,8 @@ pub struct RunView {
 impl RunView {
     fn from_row(r: RunRow) -> Result<Self, ApiError> {
         Ok(RunView {
-            metadata: serde_json::from_str(&r.metadata).map_err(|e| ApiError::Internal(e.to_string()))?,
+            metadata: serde_json::from_str(&r.metadata)
+                .map_err(|e| ApiError::Internal(e.to_string()))?,
             id: r.id,
             unit_serial: r.unit_serial,
             job_id: r.job_id,

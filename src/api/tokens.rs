@@ -51,11 +51,15 @@ async fn create_token(
     auth.require(roles::ADMIN)?;
     let Json(req) = body?;
     if req.label.as_ref().is_some_and(|l| l.len() > 200) {
-        return Err(ApiError::BadRequest("label is longer than 200 bytes".into()));
+        return Err(ApiError::BadRequest(
+            "label is longer than 200 bytes".into(),
+        ));
     }
     let (token, hash) = new_token();
     let id = uuid::Uuid::new_v4().to_string();
-    st.store.insert_token(&id, &hash, req.role, req.label.as_deref()).await?;
+    st.store
+        .insert_token(&id, &hash, req.role, req.label.as_deref())
+        .await?;
     Ok((
         StatusCode::CREATED,
         Json(NewTokenView {
@@ -67,7 +71,10 @@ async fn create_token(
     ))
 }
 
-async fn list_tokens(State(st): State<AppState>, auth: Auth) -> Result<Json<Vec<TokenView>>, ApiError> {
+async fn list_tokens(
+    State(st): State<AppState>,
+    auth: Auth,
+) -> Result<Json<Vec<TokenView>>, ApiError> {
     auth.require(roles::ADMIN)?;
     let rows = st.store.list_tokens().await?;
     Ok(Json(

@@ -31,10 +31,14 @@ fn page(limit: Option<i64>, offset: Option<i64>) -> Result<(i64, i64), ApiError>
     let limit = limit.unwrap_or(DEFAULT_PAGE);
     let offset = offset.unwrap_or(0);
     if !(1..=MAX_PAGE).contains(&limit) {
-        return Err(ApiError::BadRequest(format!("limit must be 1 to {MAX_PAGE}, got {limit}")));
+        return Err(ApiError::BadRequest(format!(
+            "limit must be 1 to {MAX_PAGE}, got {limit}"
+        )));
     }
     if offset < 0 {
-        return Err(ApiError::BadRequest(format!("offset must be ≥ 0, got {offset}")));
+        return Err(ApiError::BadRequest(format!(
+            "offset must be ≥ 0, got {offset}"
+        )));
     }
     Ok((limit, offset))
 }
@@ -196,8 +200,17 @@ async fn history(
     let serial = serial_of(path)?;
     let Query(q) = query?;
     let (limit, offset) = page(q.limit, q.offset)?;
-    let from = q.from.as_deref().map(|t| parse_time(t, "from")).transpose()?.unwrap_or(i64::MIN);
-    let to = q.to.as_deref().map(|t| parse_time(t, "to")).transpose()?.unwrap_or(i64::MAX);
+    let from = q
+        .from
+        .as_deref()
+        .map(|t| parse_time(t, "from"))
+        .transpose()?
+        .unwrap_or(i64::MIN);
+    let to =
+        q.to.as_deref()
+            .map(|t| parse_time(t, "to"))
+            .transpose()?
+            .unwrap_or(i64::MAX);
     if st.store.get_unit(&serial).await?.is_none() {
         return Err(ApiError::NotFound(format!("no unit {serial}")));
     }
@@ -206,7 +219,8 @@ async fn history(
         .into_iter()
         .map(|r| {
             Ok(HistoryItem {
-                parameters: serde_json::from_str(&r.parameters).map_err(|e| ApiError::Internal(e.to_string()))?,
+                parameters: serde_json::from_str(&r.parameters)
+                    .map_err(|e| ApiError::Internal(e.to_string()))?,
                 run_id: r.run_id,
                 job_id: r.job_id,
                 run_time: rfc3339(r.run_time),
@@ -234,16 +248,28 @@ async fn repeatability(
     let Query(q) = query?;
     if let Some(last) = q.last {
         if last < 1 {
-            return Err(ApiError::BadRequest(format!("last must be ≥ 1, got {last}")));
+            return Err(ApiError::BadRequest(format!(
+                "last must be ≥ 1, got {last}"
+            )));
         }
     }
-    let since = q.since.as_deref().map(|t| parse_time(t, "since")).transpose()?.unwrap_or(i64::MIN);
+    let since = q
+        .since
+        .as_deref()
+        .map(|t| parse_time(t, "since"))
+        .transpose()?
+        .unwrap_or(i64::MIN);
     if st.store.get_unit(&serial).await?.is_none() {
         return Err(ApiError::NotFound(format!("no unit {serial}")));
     }
     let mut rows = st.store.repeatability(&serial, since, q.last).await?;
     // Canonical order (SPEC §2), not alphabetical.
-    let order = |name: &str| PARAMETERS.iter().position(|p| p.name == name).unwrap_or(usize::MAX);
+    let order = |name: &str| {
+        PARAMETERS
+            .iter()
+            .position(|p| p.name == name)
+            .unwrap_or(usize::MAX)
+    };
     rows.sort_by_key(|r| (order(&r.name), r.name.clone()));
     let runs = rows.iter().map(|r| r.n).max().unwrap_or(0);
     let parameters: Vec<ParameterRepeatability> = rows
@@ -269,7 +295,11 @@ async fn repeatability(
             }
         })
         .collect();
-    let flagged = parameters.iter().filter(|p| p.flagged).map(|p| p.name.clone()).collect();
+    let flagged = parameters
+        .iter()
+        .filter(|p| p.flagged)
+        .map(|p| p.name.clone())
+        .collect();
     Ok(Json(Repeatability {
         unit_serial: serial,
         runs,

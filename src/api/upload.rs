@@ -144,13 +144,16 @@ impl Read for Tee {
     }
 }
 
+/// sha256 (hex), bytes written, and (records, gzip) when validated.
+type Sunk = (String, u64, Option<(u64, bool)>);
+
 /// The blocking half of an upload: write, hash, and validate if `check`
 /// says how.
 fn sink(
     rx: tokio::sync::mpsc::Receiver<Bytes>,
     file: std::fs::File,
     check: Option<(DataFormat, f64, ReadLimits)>,
-) -> Result<(String, u64, Option<(u64, bool)>), SinkError> {
+) -> Result<Sunk, SinkError> {
     let mut tee = Tee {
         rx,
         current: Bytes::new(),
@@ -200,7 +203,11 @@ fn read_limits(st: &AppState) -> ReadLimits {
 }
 
 /// Streams a body into a temp file, validating it against `meta` if given.
-async fn ingest<S>(st: &AppState, mut body: S, meta: Option<&RunMetadata>) -> Result<Ingested, ApiError>
+async fn ingest<S>(
+    st: &AppState,
+    mut body: S,
+    meta: Option<&RunMetadata>,
+) -> Result<Ingested, ApiError>
 where
     S: Stream<Item = Result<Bytes, ApiError>> + Unpin,
 {
@@ -258,7 +265,8 @@ where
 }
 
 fn parse_metadata(text: &[u8], serial: &str) -> Result<RunMetadata, ApiError> {
-    let meta = RunMetadata::from_json(text).map_err(|e| ApiError::InvalidMetadata(e.to_string()))?;
+    let meta =
+        RunMetadata::from_json(text).map_err(|e| ApiError::InvalidMetadata(e.to_string()))?;
     if meta.unit_serial != serial {
         return Err(ApiError::InvalidMetadata(format!(
             "metadata unit_serial {:?} differs from the unit in the path {serial:?}",
@@ -266,8 +274,9 @@ fn parse_metadata(text: &[u8], serial: &str) -> Result<RunMetadata, ApiError> {
         )));
     }
     if let Some(t) = &meta.recorded_at {
-        chrono::DateTime::parse_from_rfc3339(t)
-            .map_err(|e| ApiError::InvalidMetadata(format!("recorded_at {t:?} is not RFC 3339: {e}")))?;
+        chrono::DateTime::parse_from_rfc3339(t).map_err(|e| {
+            ApiError::InvalidMetadata(format!("recorded_at {t:?} is not RFC 3339: {e}"))
+        })?;
     }
     Ok(meta)
 }
@@ -276,7 +285,9 @@ fn body_error(e: axum::Error, limit: u64) -> ApiError {
     let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
     while let Some(s) = source {
         if s.is::<http_body_util::LengthLimitError>() {
-            return ApiError::PayloadTooLarge(format!("the request body exceeds the limit of {limit} bytes"));
+            return ApiError::PayloadTooLarge(format!(
+                "the request body exceeds the limit of {limit} bytes"
+            ));
         }
         source = s.source();
     }
@@ -374,7 +385,10 @@ pub async fn upload(
         };
         match parse_metadata(&text, &serial) {
             Ok(meta) => {
-                let body = req.into_body().into_data_stream().map_err(|e| body_error(e, limit));
+                let body = req
+                    .into_body()
+                    .into_data_stream()
+                    .map_err(|e| body_error(e, limit));
                 ingest(&st, body, Some(&meta)).await.map(|f| (meta, f))
             }
             Err(e) => Err(e),
@@ -418,7 +432,9 @@ async fn receive_multipart(
                 data = Some(ingest(st, field.map_err(multipart_error), meta.as_ref()).await?);
             }
             Some(name @ ("metadata" | "data")) => {
-                return Err(ApiError::BadRequest(format!("the `{name}` part is given twice")))
+                return Err(ApiError::BadRequest(format!(
+                    "the `{name}` part is given twice"
+                )))
             }
             other => {
                 return Err(ApiError::BadRequest(format!(
@@ -428,12 +444,19 @@ async fn receive_multipart(
             }
         }
     }
-    let meta = meta.ok_or_else(|| ApiError::BadRequest("the form has no `metadata` part".into()))?;
-    let mut data = data.ok_or_else(|| ApiError::BadRequest("the form has no `data` part".into()))?;
+    let meta =
+        meta.ok_or_else(|| ApiError::BadRequest("the form has no `metadata` part".into()))?;
+    let mut data =
+        data.ok_or_else(|| ApiError::BadRequest("the form has no `data` part".into()))?;
     if data.checked.is_none() {
         // The data came before the metadata: it was spooled unchecked and
         // is validated from the temp file now.
-        let (path, format, rate, limits) = (data.temp.path.clone(), meta.format, meta.sample_rate_hz, read_limits(st));
+        let (path, format, rate, limits) = (
+            data.temp.path.clone(),
+            meta.format,
+            meta.sample_rate_hz,
+            read_limits(st),
+        );
         let checked = tokio::task::spawn_blocking(move || {
             let file = std::fs::File::open(&path).map_err(SinkError::Io)?;
             count_records(io::BufReader::new(file), format, rate, limits).map_err(SinkError::Data)
@@ -445,7 +468,12 @@ async fn receive_multipart(
     Ok((meta, data))
 }
 
-async fn store_run(st: &AppState, serial: &str, meta: RunMetadata, mut data: Ingested) -> Result<Response, ApiError> {
+async fn store_run(
+    st: &AppState,
+    serial: &str,
+    meta: RunMetadata,
+    mut data: Ingested,
+) -> Result<Response, ApiError> {
     if let Some(existing) = st.store.find_run_by_hash(serial, &data.sha256).await? {
         st.metrics.upload(UploadOutcome::Duplicate);
         return Ok(existing_answer(&existing));
@@ -496,7 +524,11 @@ async fn store_run(st: &AppState, serial: &str, meta: RunMetadata, mut data: Ing
     };
     // Until the rows commit, `data.temp` still owns the blob and removes it
     // on any early return; the startup sweep covers a crash here.
-    match st.store.insert_run_and_job(&new, st.config.max_queue).await? {
+    match st
+        .store
+        .insert_run_and_job(&new, st.config.max_queue)
+        .await?
+    {
         InsertOutcome::Created => {
             data.temp.keep = true;
             st.wake.notify_one();

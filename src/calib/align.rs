@@ -17,11 +17,17 @@ pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>
         CalibError::Unusable("no specific force in the first dwell: cannot level".into())
     })?;
     let east = omega_b.cross(&up).try_normalize(1e-15).ok_or_else(|| {
-        CalibError::Unusable("no horizontal Earth rate in the first dwell: cannot find north".into())
+        CalibError::Unusable(
+            "no horizontal Earth rate in the first dwell: cannot find north".into(),
+        )
     })?;
     let north = up.cross(&east);
     // Rows of C_b^n are the navigation axes in body coordinates.
-    Ok(Matrix3::from_rows(&[east.transpose(), north.transpose(), up.transpose()]))
+    Ok(Matrix3::from_rows(&[
+        east.transpose(),
+        north.transpose(),
+        up.transpose(),
+    ]))
 }
 
 /// Fine alignment: navigates the (compensated) records of the first dwell
@@ -73,7 +79,10 @@ mod tests {
             let f_b = c.transpose() * site.f_rest_n();
             let w_b = c.transpose() * site.omega_ie_n();
             let est = coarse(&f_b, &w_b).unwrap();
-            assert!(attitude_difference_n(&est, &c).norm() < 1e-12, "heading {heading_deg}");
+            assert!(
+                attitude_difference_n(&est, &c).norm() < 1e-12,
+                "heading {heading_deg}"
+            );
         }
     }
 }

@@ -89,7 +89,9 @@ pub struct Prescan {
 
 impl Prescan {
     pub fn dwells(&self) -> impl Iterator<Item = &RunSegment> {
-        self.segments.iter().filter(|s| s.kind == SegmentKind::Dwell)
+        self.segments
+            .iter()
+            .filter(|s| s.kind == SegmentKind::Dwell)
     }
 }
 
@@ -269,7 +271,10 @@ struct PassContext<'a> {
 }
 
 fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
-    let first = scan.segments.first().ok_or_else(|| CalibError::Unusable("no segments".into()))?;
+    let first = scan
+        .segments
+        .first()
+        .ok_or_else(|| CalibError::Unusable("no segments".into()))?;
     if first.kind != SegmentKind::Dwell {
         return Err(CalibError::Unusable(format!(
             "the run must begin at rest: it moves from t = {:.2} s (no dwell of at least {} s first)",
@@ -309,7 +314,16 @@ fn kf_pass(
         .map_while(|r| r.ok())
         .take_while(|r| r.t <= t_align_end + 1e-9)
         .map(|r| comp.record(&r, dt));
-    let c_b_n0 = align::fine(site, &c_coarse, align_records, ctx.scan.t_begin, dt, window, ctx.arw, ctx.vrw)?;
+    let c_b_n0 = align::fine(
+        site,
+        &c_coarse,
+        align_records,
+        ctx.scan.t_begin,
+        dt,
+        window,
+        ctx.arw,
+        ctx.vrw,
+    )?;
 
     // The systematic filter from the run's start.
     let prior = prior_sigma(ctx.opts.prior_scale);
@@ -333,8 +347,9 @@ fn kf_pass(
         ..Default::default()
     };
     let n_segments = ctx.scan.segments.len();
-    let mut dwell_acc: Vec<DwellAccumulator> =
-        (0..n_segments).map(|_| DwellAccumulator::new(N_PARAMS)).collect();
+    let mut dwell_acc: Vec<DwellAccumulator> = (0..n_segments)
+        .map(|_| DwellAccumulator::new(N_PARAMS))
+        .collect();
 
     let mut in_window = 0usize;
     let mut t_ws = ctx.scan.t_begin;
@@ -377,7 +392,11 @@ fn kf_pass(
                         .map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit)
                         .collect(),
                 );
-                history.sigma.push((0..N_PARAMS).map(|i| s[i] / PARAMETERS[i].si_per_unit).collect());
+                history.sigma.push(
+                    (0..N_PARAMS)
+                        .map(|i| s[i] / PARAMETERS[i].si_per_unit)
+                        .collect(),
+                );
             }
             w_index += 1;
             in_window = 0;
@@ -426,7 +445,10 @@ pub fn estimate(
     cancel: &AtomicBool,
 ) -> Result<CalibrationResult, CalibError> {
     if !(run.sample_rate_hz.is_finite() && run.sample_rate_hz > 0.0) {
-        return Err(CalibError::Unusable(format!("sample rate {} Hz", run.sample_rate_hz)));
+        return Err(CalibError::Unusable(format!(
+            "sample rate {} Hz",
+            run.sample_rate_hz
+        )));
     }
     progress(Progress {
         fraction: 0.0,
@@ -434,7 +456,10 @@ pub fn estimate(
     });
     let scan = prescan(source, run, &opts.detect, cancel)?;
     let (arw, vrw) = match opts.noise {
-        Some(n) => (n.gyro_arw_deg_rt_h * DEG_PER_RT_H, n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ),
+        Some(n) => (
+            n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
+            n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
+        ),
         None => (scan.arw, scan.vrw),
     };
     let ctx = PassContext {
@@ -505,7 +530,9 @@ pub fn estimate(
     }
     let n_dwells = scan.dwells().count();
     if n_dwells < 10 {
-        warnings.push(format!("only {n_dwells} dwells found; the base model needs a multi-position scheme"));
+        warnings.push(format!(
+            "only {n_dwells} dwells found; the base model needs a multi-position scheme"
+        ));
     }
     let (roll, pitch, heading) = euler_from_dcm(&last.c_b_n0);
     let dwell1 = first_dwell(&scan)?;

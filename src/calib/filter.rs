@@ -29,9 +29,9 @@
 //! the identity. The navigation update is the Joseph form, expanded for a
 //! measurement that selects the velocity rows.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 #[cfg(test)]
 use nalgebra::Matrix6xX;
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::sensitivity::Rows;
 use super::CalibError;
@@ -224,7 +224,9 @@ impl SystematicFilter {
         let p_xv = nav.p.fixed_columns::<3>(3).into_owned(); // 6 × 3
         let s = p_xv.fixed_rows::<3>(3).into_owned() + Matrix3::identity() * self.zupt_var;
         let chol = s.cholesky().ok_or_else(|| {
-            CalibError::Numerical("navigation innovation covariance is not positive definite".into())
+            CalibError::Numerical(
+                "navigation innovation covariance is not positive definite".into(),
+            )
         })?;
         let s_inv = chol.inverse();
         let k = p_xv * s_inv; // 6 × 3
@@ -249,20 +251,16 @@ impl SystematicFilter {
     }
 
     fn solve_information(&self) -> Result<DVector<f64>, CalibError> {
-        let chol = self
-            .j
-            .clone()
-            .cholesky()
-            .ok_or_else(|| CalibError::Numerical("parameter information is not positive definite".into()))?;
+        let chol = self.j.clone().cholesky().ok_or_else(|| {
+            CalibError::Numerical("parameter information is not positive definite".into())
+        })?;
         Ok(chol.solve(&self.h))
     }
 
     fn parameter_covariance(&self) -> Result<DMatrix<f64>, CalibError> {
-        let chol = self
-            .j
-            .clone()
-            .cholesky()
-            .ok_or_else(|| CalibError::Numerical("parameter information is not positive definite".into()))?;
+        let chol = self.j.clone().cholesky().ok_or_else(|| {
+            CalibError::Numerical("parameter information is not positive definite".into())
+        })?;
         Ok(chol.inverse())
     }
 
@@ -279,7 +277,10 @@ impl SystematicFilter {
     pub fn take_navigation_errors(&mut self) -> (Vector3<f64>, Vector3<f64>) {
         let x = self.nav.x;
         self.nav.x = Vector6::zeros();
-        (Vector3::new(x[0], x[1], x[2]), Vector3::new(x[3], x[4], x[5]))
+        (
+            Vector3::new(x[0], x[1], x[2]),
+            Vector3::new(x[3], x[4], x[5]),
+        )
     }
 
     /// The scaled parameter estimate J⁻¹ h.
@@ -357,7 +358,10 @@ mod tests {
         use rand::{Rng, SeedableRng};
         use rand_distr::StandardNormal;
         let window = 1.0;
-        let f = error_dynamics(&Vector3::new(0.0, 6.4e-5, 3.4e-5), &Vector3::new(0.0, 0.0, 9.79));
+        let f = error_dynamics(
+            &Vector3::new(0.0, 6.4e-5, 3.4e-5),
+            &Vector3::new(0.0, 0.0, 9.79),
+        );
         let (arw, vrw) = (8.7e-8, 4.9e-5);
         let mut qc = Matrix6::zeros();
         for i in 0..3 {
@@ -389,14 +393,20 @@ mod tests {
                 for j in 0..n_p {
                     let ang = (phase * 7 + j * 3) as f64;
                     let col = Vector3::new(ang.sin(), ang.cos(), (0.3 * ang).sin()) * 1e-2;
-                    let (rows, r0) = if j % 2 == 0 { (Rows::Attitude, 0) } else { (Rows::Velocity, 3) };
+                    let (rows, r0) = if j % 2 == 0 {
+                        (Rows::Attitude, 0)
+                    } else {
+                        (Rows::Velocity, 3)
+                    };
                     kf.add_column(j, rows, &col, 0.5 * window);
                     b.fixed_view_mut::<3, 1>(r0, j).copy_from(&col);
                 }
                 // The same single mid-window record the filter expands.
                 let fm = nalgebra::DMatrix::from_column_slice(6, 6, f.as_slice());
                 let bd = nalgebra::DMatrix::from_column_slice(6, n_p, b.as_slice());
-                let b_eff = &bd + &fm * &bd * (0.5 * window) + (&fm * &fm) * &bd * (0.125 * window * window);
+                let b_eff = &bd
+                    + &fm * &bd * (0.5 * window)
+                    + (&fm * &fm) * &bd * (0.125 * window * window);
                 let bp = b_eff * DVector::from_vec(p_true.clone());
                 let w = lq * Vector6::from_fn(|_, _| normal());
                 x = a * x + Vector6::from_column_slice(bp.as_slice()) + w;

@@ -40,7 +40,9 @@ pub enum CalibError {
 /// Implementations stream: no pass may hold the run in memory.
 pub trait RecordSource: Sync {
     /// A fresh pass over the records from the first.
-    fn records(&self) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError>;
+    fn records(
+        &self,
+    ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError>;
 }
 
 /// What the estimator needs to know about a run besides its records.

@@ -201,7 +201,11 @@ impl Segmenter {
                 let span = s.n as f64 * self.dt;
                 let moving = !s.still;
                 RunSegment {
-                    kind: if moving { SegmentKind::Motion } else { SegmentKind::Dwell },
+                    kind: if moving {
+                        SegmentKind::Motion
+                    } else {
+                        SegmentKind::Dwell
+                    },
                     t_start: s.t_start,
                     t_end: s.t_end,
                     mean_omega_b: (s.sum_dtheta / span).into(),

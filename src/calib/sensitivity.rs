@@ -43,7 +43,7 @@ pub fn base_columns(
     add(6, A, cx * dtheta.y); // M_gxy
     add(7, A, cx * dtheta.z); // M_gxz
     add(8, A, cy * dtheta.z); // M_gyz
-    // Accelerometer biases, scale factors, misalignments, quadratic terms.
+                              // Accelerometer biases, scale factors, misalignments, quadratic terms.
     add(9, V, cx * dt);
     add(10, V, cy * dt);
     add(11, V, cz * dt);
@@ -85,7 +85,8 @@ mod tests {
             Rows::Velocity => v += col * p.si[i],
         });
         let expect_phi = c * (p.k_g() * dtheta + p.b_g() * dt);
-        let expect_v = c * (p.k_a() * dv + p.b_a() * dt + p.d_a().component_mul(&dv.component_mul(&dv)) / dt);
+        let expect_v =
+            c * (p.k_a() * dv + p.b_a() * dt + p.d_a().component_mul(&dv.component_mul(&dv)) / dt);
         assert!((phi - expect_phi).norm() < 1e-18);
         assert!((v - expect_v).norm() < 1e-16);
     }

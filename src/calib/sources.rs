@@ -9,7 +9,9 @@ use crate::sim::{simulate, SimConfig};
 pub struct SimSource(pub SimConfig);
 
 impl RecordSource for SimSource {
-    fn records(&self) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
+    fn records(
+        &self,
+    ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
         let sim = simulate(&self.0).map_err(|e| CalibError::Source(e.to_string()))?;
         Ok(Box::new(sim.map(Ok)))
     }
@@ -19,7 +21,9 @@ impl RecordSource for SimSource {
 pub struct SliceSource<'a>(pub &'a [Record]);
 
 impl RecordSource for SliceSource<'_> {
-    fn records(&self) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
+    fn records(
+        &self,
+    ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
         Ok(Box::new(self.0.iter().copied().map(Ok)))
     }
 }

@@ -53,7 +53,9 @@ pub fn validate_serial(serial: &str) -> Result<(), String> {
         ));
     }
     if !serial.starts_with(|c: char| c.is_ascii_alphanumeric()) {
-        return Err(format!("unit_serial {serial:?} must start with a letter or digit"));
+        return Err(format!(
+            "unit_serial {serial:?} must start with a letter or digit"
+        ));
     }
     Ok(())
 }
@@ -122,7 +124,8 @@ impl RunMetadata {
             }
         }
         if let Some(s) = &self.scheme {
-            s.resolve(None).map_err(|e| invalid(format!("scheme: {e}")))?;
+            s.resolve(None)
+                .map_err(|e| invalid(format!("scheme: {e}")))?;
         }
         Ok(())
     }
@@ -187,7 +190,10 @@ impl Truth {
             message,
         };
         check_rate(self.sample_rate_hz).map_err(invalid)?;
-        let scheme = self.scheme.resolve(None).map_err(|e| invalid(format!("scheme: {e}")))?;
+        let scheme = self
+            .scheme
+            .resolve(None)
+            .map_err(|e| invalid(format!("scheme: {e}")))?;
         Ok(SimConfig {
             site: self.site(),
             sample_rate_hz: self.sample_rate_hz,
@@ -281,8 +287,8 @@ mod tests {
 
     #[test]
     fn missing_required_field_names_it() {
-        let err = RunMetadata::from_json(br#"{"unit_serial": "A1", "sample_rate_hz": 100}"#)
-            .unwrap_err();
+        let err =
+            RunMetadata::from_json(br#"{"unit_serial": "A1", "sample_rate_hz": 100}"#).unwrap_err();
         assert!(err.to_string().contains("latitude_deg"), "{err}");
     }
 }

@@ -119,7 +119,9 @@ impl JobRunner {
         let seconds = started.elapsed().as_secs_f64();
         match end {
             JobEnd::Succeeded => self.metrics.job_finished(JobOutcome::Succeeded, seconds),
-            JobEnd::Failed | JobEnd::Retrying => self.metrics.job_finished(JobOutcome::Failed, seconds),
+            JobEnd::Failed | JobEnd::Retrying => {
+                self.metrics.job_finished(JobOutcome::Failed, seconds)
+            }
             JobEnd::Cancelled => self.metrics.job_finished(JobOutcome::Cancelled, seconds),
             JobEnd::HandedBack | JobEnd::LeaseLost => {}
         }
@@ -132,7 +134,11 @@ impl JobRunner {
         let meta = match RunMetadata::from_json(claim.metadata.as_bytes()) {
             Ok(m) => m,
             // Validated at upload; if it no longer parses, no retry helps.
-            Err(e) => return self.fail(claim, &format!("stored metadata: {e}"), false).await,
+            Err(e) => {
+                return self
+                    .fail(claim, &format!("stored metadata: {e}"), false)
+                    .await
+            }
         };
         let path = self.settings.data_dir.join(&claim.blob_path);
         let cancel = Arc::new(AtomicBool::new(false));
@@ -145,7 +151,8 @@ impl JobRunner {
                 // writes it, so progress costs one row update a second
                 // however often the estimator reports.
                 let mut report = |p: Progress| {
-                    *progress.lock().expect("progress lock") = (p.fraction.clamp(0.0, 1.0), p.stage);
+                    *progress.lock().expect("progress lock") =
+                        (p.fraction.clamp(0.0, 1.0), p.stage);
                 };
                 calibrate_file(&path, &meta, &estimate, &mut report, &cancel)
             })
@@ -204,7 +211,11 @@ impl JobRunner {
                     }
                     _ => self.store.finish_cancelled(fence).await?,
                 };
-                Ok(if done { JobEnd::Cancelled } else { JobEnd::LeaseLost })
+                Ok(if done {
+                    JobEnd::Cancelled
+                } else {
+                    JobEnd::LeaseLost
+                })
             }
             // A source error is I/O on our own stored file (the data was
             // validated at upload): possibly transient, so retried. A run
@@ -213,7 +224,11 @@ impl JobRunner {
             Ok(Err(e @ CalibError::Source(_))) => self.fail(claim, &e.to_string(), true).await,
             Ok(Err(e)) => self.fail(claim, &e.to_string(), false).await,
             Err(join) => {
-                let what = if join.is_panic() { "the estimator panicked" } else { "the estimator task was aborted" };
+                let what = if join.is_panic() {
+                    "the estimator panicked"
+                } else {
+                    "the estimator task was aborted"
+                };
                 self.fail(claim, what, true).await
             }
         }
@@ -223,11 +238,17 @@ impl JobRunner {
         let exp = u32::try_from(claim.fence.attempt.clamp(1, 6) - 1).unwrap_or(0);
         let backoff = (self.settings.retry_backoff * 2u32.pow(exp)).min(Duration::from_secs(60));
         tracing::warn!(job = %claim.fence.job_id, attempt = claim.fence.attempt, error, "job attempt failed");
-        Ok(match self.store.fail_job(&claim.fence, error, retry, backoff).await? {
-            Some(state) if state == "queued" => JobEnd::Retrying,
-            Some(_) => JobEnd::Failed,
-            None => JobEnd::LeaseLost,
-        })
+        Ok(
+            match self
+                .store
+                .fail_job(&claim.fence, error, retry, backoff)
+                .await?
+            {
+                Some(state) if state == "queued" => JobEnd::Retrying,
+                Some(_) => JobEnd::Failed,
+                None => JobEnd::LeaseLost,
+            },
+        )
     }
 }
 
@@ -242,7 +263,12 @@ impl WorkerPool {
     /// Starts `n` workers. `wake` is notified on every upload; without it
     /// a worker still polls every `poll` (to reclaim expired leases and
     /// pick up retries whose backoff has passed).
-    pub fn start(runner: Arc<JobRunner>, n: usize, wake: Arc<Notify>, poll: Duration) -> WorkerPool {
+    pub fn start(
+        runner: Arc<JobRunner>,
+        n: usize,
+        wake: Arc<Notify>,
+        poll: Duration,
+    ) -> WorkerPool {
         let stop = CancellationToken::new();
         let handles = (0..n)
             .map(|worker| {
@@ -266,7 +292,11 @@ impl WorkerPool {
                 })
             })
             .collect();
-        WorkerPool { handles, stop, runner }
+        WorkerPool {
+            handles,
+            stop,
+            runner,
+        }
     }
 
     /// Stops taking work; running jobs get `grace` to finish, then are

@@ -16,7 +16,9 @@ impl ErrorParameters {
     /// Δv_meas = (I + K_a) Δv + b_a Δt + D_a ∫(f∘f) dt, with `int_f_sq` the
     /// component-wise integral ∫ f^b∘f^b dt over the record.
     pub fn apply_accel(&self, dv: &Vector3<f64>, int_f_sq: &Vector3<f64>, dt: f64) -> Vector3<f64> {
-        (Matrix3::identity() + self.k_a()) * dv + self.b_a() * dt + self.d_a().component_mul(int_f_sq)
+        (Matrix3::identity() + self.k_a()) * dv
+            + self.b_a() * dt
+            + self.d_a().component_mul(int_f_sq)
     }
 
     pub fn compensator(&self) -> Compensator {

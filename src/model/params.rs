@@ -114,7 +114,9 @@ impl ErrorParameters {
         }
         let mut si = [0.0; N_PARAMS];
         for (i, info) in PARAMETERS.iter().enumerate() {
-            let v = *map.get(info.name).ok_or(ParameterError::Missing(info.name))?;
+            let v = *map
+                .get(info.name)
+                .ok_or(ParameterError::Missing(info.name))?;
             if !v.is_finite() {
                 return Err(ParameterError::NotFinite(info.name.to_string()));
             }
@@ -184,7 +186,11 @@ impl ErrorParameters {
         let mut si = [0.0; N_PARAMS];
         si[GYRO_BIAS..GYRO_BIAS + 3].copy_from_slice(b_g.as_slice());
         si[GYRO_SCALE..GYRO_SCALE + 3].copy_from_slice(&[k_g[(0, 0)], k_g[(1, 1)], k_g[(2, 2)]]);
-        si[GYRO_MISALIGN..GYRO_MISALIGN + 3].copy_from_slice(&[k_g[(0, 1)], k_g[(0, 2)], k_g[(1, 2)]]);
+        si[GYRO_MISALIGN..GYRO_MISALIGN + 3].copy_from_slice(&[
+            k_g[(0, 1)],
+            k_g[(0, 2)],
+            k_g[(1, 2)],
+        ]);
         si[ACCEL_BIAS..ACCEL_BIAS + 3].copy_from_slice(b_a.as_slice());
         si[ACCEL_SCALE..ACCEL_SCALE + 3].copy_from_slice(&[k_a[(0, 0)], k_a[(1, 1)], k_a[(2, 2)]]);
         si[ACCEL_MISALIGN..ACCEL_MISALIGN + 6].copy_from_slice(&[
@@ -273,8 +279,10 @@ mod tests {
 
     #[test]
     fn matrices_place_each_named_term() {
-        let mut map: BTreeMap<String, f64> =
-            PARAMETERS.iter().map(|p| (p.name.to_string(), 0.0)).collect();
+        let mut map: BTreeMap<String, f64> = PARAMETERS
+            .iter()
+            .map(|p| (p.name.to_string(), 0.0))
+            .collect();
         map.insert("gyro_misalign_xz".into(), 1.0);
         map.insert("accel_misalign_zy".into(), 2.0);
         map.insert("accel_misalign_yx".into(), 3.0);

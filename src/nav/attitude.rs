@@ -14,7 +14,11 @@ pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 /// The vector of a skew-symmetric matrix (inverse of [`skew`]), taking the
 /// antisymmetric part of `m`.
 pub fn unskew(m: &Matrix3<f64>) -> Vector3<f64> {
-    Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) * 0.5
+    Vector3::new(
+        m[(2, 1)] - m[(1, 2)],
+        m[(0, 2)] - m[(2, 0)],
+        m[(1, 0)] - m[(0, 1)],
+    ) * 0.5
 }
 
 /// sin(x)/x and (1 − cos x)/x², accurate near 0.
@@ -22,7 +26,10 @@ fn rodrigues_coefficients(angle: f64) -> (f64, f64) {
     let a2 = angle * angle;
     if angle.abs() < 1e-4 {
         // Taylor series; the next terms are below 1e-20 here.
-        (1.0 - a2 / 6.0 + a2 * a2 / 120.0, 0.5 - a2 / 24.0 + a2 * a2 / 720.0)
+        (
+            1.0 - a2 / 6.0 + a2 * a2 / 120.0,
+            0.5 - a2 / 24.0 + a2 * a2 / 720.0,
+        )
     } else {
         (angle.sin() / angle, (1.0 - angle.cos()) / a2)
     }
@@ -82,7 +89,9 @@ pub fn euler_from_dcm(c_b_n: &Matrix3<f64>) -> (f64, f64, f64) {
 
 /// Re-orthonormalises a DCM that has drifted numerically.
 pub fn orthonormalize(c: &Matrix3<f64>) -> Matrix3<f64> {
-    UnitQuaternion::from_matrix(c).to_rotation_matrix().into_inner()
+    UnitQuaternion::from_matrix(c)
+        .to_rotation_matrix()
+        .into_inner()
 }
 
 #[cfg(test)]
@@ -109,7 +118,11 @@ mod tests {
             let back = dcm_to_rotvec(&rotvec_to_dcm(&phi));
             assert!((back - phi).norm() < 1e-13 * (1.0 + angle), "angle {angle}");
             let q = rotvec_to_quat(&phi);
-            assert!(close(&q.to_rotation_matrix().into_inner(), &rotvec_to_dcm(&phi), 1e-15));
+            assert!(close(
+                &q.to_rotation_matrix().into_inner(),
+                &rotvec_to_dcm(&phi),
+                1e-15
+            ));
         }
     }
 

@@ -82,10 +82,16 @@ impl Site {
     /// Checks the site is physically meaningful; returns what is wrong.
     pub fn validate(&self) -> Result<(), String> {
         if !(-90.0..=90.0).contains(&self.latitude_deg) {
-            return Err(format!("latitude_deg {} outside [-90, 90]", self.latitude_deg));
+            return Err(format!(
+                "latitude_deg {} outside [-90, 90]",
+                self.latitude_deg
+            ));
         }
         if !(-180.0..=360.0).contains(&self.longitude_deg) {
-            return Err(format!("longitude_deg {} outside [-180, 360]", self.longitude_deg));
+            return Err(format!(
+                "longitude_deg {} outside [-180, 360]",
+                self.longitude_deg
+            ));
         }
         if !self.height_m.is_finite() || self.height_m.abs() > 20_000.0 {
             return Err(format!("height_m {} outside ±20 km", self.height_m));

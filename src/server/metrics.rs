@@ -6,7 +6,9 @@ use std::fmt::Write as _;
 use std::sync::Mutex;
 
 /// Upper bounds of the job-duration histogram, seconds.
-const DURATION_BUCKETS_S: [f64; 11] = [0.5, 1.0, 2.0, 5.0, 10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1800.0];
+const DURATION_BUCKETS_S: [f64; 11] = [
+    0.5, 1.0, 2.0, 5.0, 10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1800.0,
+];
 
 #[derive(Debug, Default)]
 struct Inner {
@@ -72,23 +74,47 @@ impl Metrics {
         for (state, n) in job_counts {
             let _ = writeln!(s, "sinscal_jobs{{state=\"{state}\"}} {n}");
         }
-        let _ = writeln!(s, "# HELP sinscal_upload_bytes_total Bytes of run data received.");
+        let _ = writeln!(
+            s,
+            "# HELP sinscal_upload_bytes_total Bytes of run data received."
+        );
         let _ = writeln!(s, "# TYPE sinscal_upload_bytes_total counter");
         let _ = writeln!(s, "sinscal_upload_bytes_total {}", inner.upload_bytes);
         let _ = writeln!(s, "# HELP sinscal_uploads_total Uploads by outcome.");
         let _ = writeln!(s, "# TYPE sinscal_uploads_total counter");
-        for (name, n) in ["accepted", "duplicate", "refused"].iter().zip(inner.uploads) {
+        for (name, n) in ["accepted", "duplicate", "refused"]
+            .iter()
+            .zip(inner.uploads)
+        {
             let _ = writeln!(s, "sinscal_uploads_total{{outcome=\"{name}\"}} {n}");
         }
-        let _ = writeln!(s, "# HELP sinscal_job_duration_seconds Wall time of job attempts.");
+        let _ = writeln!(
+            s,
+            "# HELP sinscal_job_duration_seconds Wall time of job attempts."
+        );
         let _ = writeln!(s, "# TYPE sinscal_job_duration_seconds histogram");
-        for (name, (buckets, sum, count)) in ["succeeded", "failed", "cancelled"].iter().zip(&inner.durations) {
+        for (name, (buckets, sum, count)) in ["succeeded", "failed", "cancelled"]
+            .iter()
+            .zip(&inner.durations)
+        {
             for (le, b) in DURATION_BUCKETS_S.iter().zip(buckets) {
-                let _ = writeln!(s, "sinscal_job_duration_seconds_bucket{{outcome=\"{name}\",le=\"{le}\"}} {b}");
+                let _ = writeln!(
+                    s,
+                    "sinscal_job_duration_seconds_bucket{{outcome=\"{name}\",le=\"{le}\"}} {b}"
+                );
             }
-            let _ = writeln!(s, "sinscal_job_duration_seconds_bucket{{outcome=\"{name}\",le=\"+Inf\"}} {count}");
-            let _ = writeln!(s, "sinscal_job_duration_seconds_sum{{outcome=\"{name}\"}} {sum}");
-            let _ = writeln!(s, "sinscal_job_duration_seconds_count{{outcome=\"{name}\"}} {count}");
+            let _ = writeln!(
+                s,
+                "sinscal_job_duration_seconds_bucket{{outcome=\"{name}\",le=\"+Inf\"}} {count}"
+            );
+            let _ = writeln!(
+                s,
+                "sinscal_job_duration_seconds_sum{{outcome=\"{name}\"}} {sum}"
+            );
+            let _ = writeln!(
+                s,
+                "sinscal_job_duration_seconds_count{{outcome=\"{name}\"}} {count}"
+            );
         }
         s
     }

@@ -127,7 +127,9 @@ impl Config {
         Config {
             data_dir: data_dir.into(),
             bind: "127.0.0.1:8080".into(),
-            workers: std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1),
+            workers: std::thread::available_parallelism()
+                .map(|n| n.get())
+                .unwrap_or(1),
             max_body_bytes: 2 << 30,
             max_decompressed_bytes: 8 << 30,
             max_queue: 1000,
@@ -152,7 +154,10 @@ impl Config {
         c.max_decompressed_bytes = a.max_decompressed_bytes;
         c.max_queue = a.max_queue;
         if !(a.lease_secs.is_finite() && a.lease_secs >= 0.3) {
-            return Err(ServerError::Config(format!("--lease-secs must be ≥ 0.3, got {}", a.lease_secs)));
+            return Err(ServerError::Config(format!(
+                "--lease-secs must be ≥ 0.3, got {}",
+                a.lease_secs
+            )));
         }
         c.lease = Duration::from_secs_f64(a.lease_secs);
         if a.max_attempts < 1 {
@@ -160,16 +165,21 @@ impl Config {
         }
         c.max_attempts = a.max_attempts;
         if !(a.shutdown_grace_secs.is_finite() && a.shutdown_grace_secs >= 0.0) {
-            return Err(ServerError::Config("--shutdown-grace-secs must be ≥ 0".into()));
+            return Err(ServerError::Config(
+                "--shutdown-grace-secs must be ≥ 0".into(),
+            ));
         }
         c.shutdown_grace = Duration::from_secs_f64(a.shutdown_grace_secs);
         if let Some(path) = &a.tolerances {
-            let text = std::fs::read(path).map_err(io_err(format!("reading {}", path.display())))?;
+            let text =
+                std::fs::read(path).map_err(io_err(format!("reading {}", path.display())))?;
             let given: BTreeMap<String, f64> = serde_json::from_slice(&text)
                 .map_err(|e| ServerError::Config(format!("{}: {e}", path.display())))?;
             for (name, tol) in given {
                 if !c.tolerances.contains_key(&name) {
-                    return Err(ServerError::Config(format!("tolerances: unknown parameter {name:?}")));
+                    return Err(ServerError::Config(format!(
+                        "tolerances: unknown parameter {name:?}"
+                    )));
                 }
                 c.tolerances.insert(name, tol);
             }
@@ -201,7 +211,8 @@ async fn sweep_orphans(store: &Store, data_dir: &Path) -> Result<(usize, usize),
         .collect();
     let runs = data_dir.join("runs");
     let (mut partial, mut orphans) = (0, 0);
-    let rd = |dir: &Path| std::fs::read_dir(dir).map_err(io_err(format!("listing {}", dir.display())));
+    let rd =
+        |dir: &Path| std::fs::read_dir(dir).map_err(io_err(format!("listing {}", dir.display())));
     for entry in rd(&runs.join("tmp"))? {
         let entry = entry.map_err(io_err("listing runs/tmp"))?;
         if std::fs::remove_file(entry.path()).is_ok() {
@@ -248,7 +259,9 @@ impl Application {
         let listener = TcpListener::bind(&config.bind)
             .await
             .map_err(io_err(format!("binding {}", config.bind)))?;
-        let addr = listener.local_addr().map_err(io_err("reading the bound address"))?;
+        let addr = listener
+            .local_addr()
+            .map_err(io_err("reading the bound address"))?;
         let metrics = Arc::new(Metrics::default());
         let runner = Arc::new(JobRunner::new(
             store.clone(),
@@ -302,10 +315,18 @@ impl Application {
     /// Serves until `shutdown` resolves; then stops accepting requests,
     /// lets running jobs finish within the grace period (else hands them
     /// back), and closes the database.
-    pub async fn run_until_stopped(self, shutdown: impl Future<Output = ()> + Send + 'static) -> Result<(), ServerError> {
+    pub async fn run_until_stopped(
+        self,
+        shutdown: impl Future<Output = ()> + Send + 'static,
+    ) -> Result<(), ServerError> {
         let config = self.state.config.clone();
         let poll = (config.lease / 2).min(Duration::from_secs(1));
-        let pool = WorkerPool::start(self.runner.clone(), config.workers, self.state.wake.clone(), poll);
+        let pool = WorkerPool::start(
+            self.runner.clone(),
+            config.workers,
+            self.state.wake.clone(),
+            poll,
+        );
         let state = self.state.clone();
         let app = api::router(self.state.clone());
         let (stopped_tx, stopped_rx) = tokio::sync::oneshot::channel::<()>();
@@ -359,8 +380,9 @@ fn runtime() -> Result<tokio::runtime::Runtime, ServerError> {
 pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info,sqlx=warn,tower_http=warn")),
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
+                tracing_subscriber::EnvFilter::new("info,sqlx=warn,tower_http=warn")
+            }),
         )
         .with_writer(std::io::stderr)
         .try_init();
@@ -379,7 +401,11 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
 }
 
 /// `sinscal token create`: a new token of `role`, returned for printing.
-pub fn create_token(data_dir: &Path, role: Role, label: Option<&str>) -> Result<String, ServerError> {
+pub fn create_token(
+    data_dir: &Path,
+    role: Role,
+    label: Option<&str>,
+) -> Result<String, ServerError> {
     runtime()?.block_on(async move {
         let store = open_store(data_dir, 1).await?;
         let (token, hash) = auth::new_token();

@@ -217,7 +217,11 @@ impl Simulator {
         let mut i = bps.partition_point(|&b| b <= ta);
         let mut u0 = ta;
         loop {
-            let u1 = if i < bps.len() && bps[i] < tb { bps[i] } else { tb };
+            let u1 = if i < bps.len() && bps[i] < tb {
+                bps[i]
+            } else {
+                tb
+            };
             if u1 > u0 {
                 let mid = 0.5 * (u0 + u1);
                 let seg = self.traj.segment_index(mid, self.hint);

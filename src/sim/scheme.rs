@@ -174,7 +174,11 @@ impl Scheme {
         match name {
             "ten-position" => Some(with_dwells(name, &TEN_POSITION, dwell_s)),
             "ten-position-9+9" => {
-                let all: Vec<_> = TEN_POSITION.iter().chain(NINE_MORE.iter()).copied().collect();
+                let all: Vec<_> = TEN_POSITION
+                    .iter()
+                    .chain(NINE_MORE.iter())
+                    .copied()
+                    .collect();
                 Some(with_dwells(name, &all, dwell_s))
             }
             _ => None,
@@ -261,7 +265,10 @@ mod tests {
             _ => panic!("expected a rotation"),
         }
         let named: SchemeRef = serde_json::from_str(r#""ten-position""#).unwrap();
-        assert_eq!(named.resolve(Some(60.0)).unwrap().steps[0], Step::Dwell { dwell_s: 60.0 });
+        assert_eq!(
+            named.resolve(Some(60.0)).unwrap().steps[0],
+            Step::Dwell { dwell_s: 60.0 }
+        );
     }
 
     #[test]

@@ -85,7 +85,9 @@ impl FromStr for Role {
             "station" => Ok(Role::Station),
             "engineer" => Ok(Role::Engineer),
             "admin" => Ok(Role::Admin),
-            other => Err(format!("unknown role {other:?}: station, engineer or admin")),
+            other => Err(format!(
+                "unknown role {other:?}: station, engineer or admin"
+            )),
         }
     }
 }
@@ -159,7 +161,10 @@ pub struct NewRun {
 pub enum InsertOutcome {
     Created,
     /// The same bytes were already stored for this unit: its run and job.
-    Existing { run_id: String, job_id: String },
+    Existing {
+        run_id: String,
+        job_id: String,
+    },
     /// The queue holds `max_queue` jobs already.
     QueueFull,
 }
@@ -276,14 +281,16 @@ impl Store {
         role: Role,
         label: Option<&str>,
     ) -> Result<(), StoreError> {
-        sqlx::query("INSERT INTO tokens (id, hash, role, label, created_at) VALUES (?, ?, ?, ?, ?)")
-            .bind(id)
-            .bind(hash)
-            .bind(role.as_str())
-            .bind(label)
-            .bind(now_ms())
-            .execute(&self.write)
-            .await?;
+        sqlx::query(
+            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES (?, ?, ?, ?, ?)",
+        )
+        .bind(id)
+        .bind(hash)
+        .bind(role.as_str())
+        .bind(label)
+        .bind(now_ms())
+        .execute(&self.write)
+        .await?;
         Ok(())
     }
 
@@ -489,10 +496,11 @@ impl Store {
 
     /// Jobs per state (every state present, zero included).
     pub async fn job_counts(&self) -> Result<BTreeMap<String, i64>, StoreError> {
-        let mut counts: BTreeMap<String, i64> = ["queued", "running", "succeeded", "failed", "cancelled"]
-            .iter()
-            .map(|s| (s.to_string(), 0))
-            .collect();
+        let mut counts: BTreeMap<String, i64> =
+            ["queued", "running", "succeeded", "failed", "cancelled"]
+                .iter()
+                .map(|s| (s.to_string(), 0))
+                .collect();
         let rows = sqlx::query("SELECT state, COUNT(*) FROM jobs GROUP BY state")
             .fetch_all(&self.read)
             .await?;
@@ -531,7 +539,11 @@ impl Store {
     /// backoff has passed, or a running job whose lease expired (its worker
     /// died). Expired jobs that were asked to cancel, or that used their
     /// last attempt, are closed instead of claimed.
-    pub async fn claim_job(&self, owner: &str, lease: Duration) -> Result<Option<Claim>, StoreError> {
+    pub async fn claim_job(
+        &self,
+        owner: &str,
+        lease: Duration,
+    ) -> Result<Option<Claim>, StoreError> {
         let now = now_ms();
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
         sqlx::query(
@@ -569,10 +581,11 @@ impl Store {
             return Ok(None);
         };
         let run_id: String = c.get(1);
-        let run = sqlx::query("SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = ?")
-            .bind(&run_id)
-            .fetch_one(&mut *tx)
-            .await?;
+        let run =
+            sqlx::query("SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = ?")
+                .bind(&run_id)
+                .fetch_one(&mut *tx)
+                .await?;
         tx.commit().await?;
         Ok(Some(Claim {
             fence: Fence {
@@ -745,13 +758,19 @@ impl Store {
     // ----- results, units, statistics ----------------------------------
 
     pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
-        Ok(sqlx::query_scalar("SELECT result FROM results WHERE run_id = ?")
-            .bind(run_id)
-            .fetch_optional(&self.read)
-            .await?)
+        Ok(
+            sqlx::query_scalar("SELECT result FROM results WHERE run_id = ?")
+                .bind(run_id)
+                .fetch_optional(&self.read)
+                .await?,
+        )
     }
 
-    pub async fn list_units(&self, limit: i64, offset: i64) -> Result<(i64, Vec<UnitSummary>), StoreError> {
+    pub async fn list_units(
+        &self,
+        limit: i64,
+        offset: i64,
+    ) -> Result<(i64, Vec<UnitSummary>), StoreError> {
         let total = sqlx::query_scalar("SELECT COUNT(*) FROM units")
             .fetch_one(&self.read)
             .await?;

@@ -49,7 +49,10 @@ pub async fn spawn_app_with(workers: usize, tweak: impl FnOnce(&mut Config)) -> 
     let mut config = test_config(data_dir.path(), workers);
     tweak(&mut config);
     let app = Application::build(config).await.expect("build app");
-    let admin = app.first_admin_token().expect("first start makes an admin token").to_string();
+    let admin = app
+        .first_admin_token()
+        .expect("first start makes an admin token")
+        .to_string();
     let base = format!("http://{}/api/v1", app.addr());
     let runner = app.runner();
     let store = app.store();
@@ -149,13 +152,30 @@ impl TestApp {
             .await
             .unwrap();
         assert_eq!(r.status(), StatusCode::CREATED);
-        r.json::<Value>().await.unwrap()["token"].as_str().unwrap().to_string()
+        r.json::<Value>().await.unwrap()["token"]
+            .as_str()
+            .unwrap()
+            .to_string()
     }
 
-    pub async fn upload_multipart(&self, token: &str, serial: &str, meta: &[u8], data: Vec<u8>) -> Response {
+    pub async fn upload_multipart(
+        &self,
+        token: &str,
+        serial: &str,
+        meta: &[u8],
+        data: Vec<u8>,
+    ) -> Response {
         let form = reqwest::multipart::Form::new()
-            .part("metadata", reqwest::multipart::Part::bytes(meta.to_vec()).mime_str("application/json").unwrap())
-            .part("data", reqwest::multipart::Part::bytes(data).file_name("run.dat"));
+            .part(
+                "metadata",
+                reqwest::multipart::Part::bytes(meta.to_vec())
+                    .mime_str("application/json")
+                    .unwrap(),
+            )
+            .part(
+                "data",
+                reqwest::multipart::Part::bytes(data).file_name("run.dat"),
+            );
         self.http
             .post(self.url(&format!("/units/{serial}/runs")))
             .bearer_auth(token)
@@ -166,7 +186,13 @@ impl TestApp {
     }
 
     /// Raw body, metadata in the `X-Sinscal-Metadata` header.
-    pub async fn upload_raw(&self, token: &str, serial: &str, meta: &[u8], data: Vec<u8>) -> Response {
+    pub async fn upload_raw(
+        &self,
+        token: &str,
+        serial: &str,
+        meta: &[u8],
+        data: Vec<u8>,
+    ) -> Response {
         self.http
             .post(self.url(&format!("/units/{serial}/runs")))
             .bearer_auth(token)
@@ -179,12 +205,22 @@ impl TestApp {
     }
 
     pub async fn upload_run(&self, serial: &str, run: &SimRun) -> Response {
-        self.upload_multipart(&self.admin, serial, &run.metadata, std::fs::read(&run.data).unwrap())
-            .await
+        self.upload_multipart(
+            &self.admin,
+            serial,
+            &run.metadata,
+            std::fs::read(&run.data).unwrap(),
+        )
+        .await
     }
 
     pub async fn get(&self, token: &str, path: &str) -> Response {
-        self.http.get(self.url(path)).bearer_auth(token).send().await.unwrap()
+        self.http
+            .get(self.url(path))
+            .bearer_auth(token)
+            .send()
+            .await
+            .unwrap()
     }
 
     pub async fn get_json(&self, path: &str) -> Value {
@@ -223,15 +259,21 @@ impl TestApp {
     }
 
     pub async fn history(&self, serial: &str, query: &str) -> Value {
-        self.get_json(&format!("/units/{serial}/history{query}")).await
+        self.get_json(&format!("/units/{serial}/history{query}"))
+            .await
     }
 
     pub async fn repeatability(&self, serial: &str, query: &str) -> Value {
-        self.get_json(&format!("/units/{serial}/repeatability{query}")).await
+        self.get_json(&format!("/units/{serial}/repeatability{query}"))
+            .await
     }
 
     pub async fn metrics(&self) -> String {
-        self.get(&self.admin, "/metrics").await.text().await.unwrap()
+        self.get(&self.admin, "/metrics")
+            .await
+            .text()
+            .await
+            .unwrap()
     }
 
     /// Polls a job until it is in a final state.
@@ -243,7 +285,10 @@ impl TestApp {
             if matches!(state, "succeeded" | "failed" | "cancelled") {
                 return job;
             }
-            assert!(start.elapsed() < timeout, "job {id} still {state} after {timeout:?}");
+            assert!(
+                start.elapsed() < timeout,
+                "job {id} still {state} after {timeout:?}"
+            );
             tokio::time::sleep(Duration::from_millis(50)).await;
         }
     }
@@ -276,8 +321,15 @@ impl TestApp {
 /// The status and problem+json body of a refusal.
 pub async fn problem(r: Response) -> (StatusCode, Value) {
     let status = r.status();
-    let ct = r.headers().get("content-type").map(|v| v.to_str().unwrap().to_string());
-    assert_eq!(ct.as_deref(), Some("application/problem+json"), "status {status}");
+    let ct = r
+        .headers()
+        .get("content-type")
+        .map(|v| v.to_str().unwrap().to_string());
+    assert_eq!(
+        ct.as_deref(),
+        Some("application/problem+json"),
+        "status {status}"
+    );
     (status, r.json().await.unwrap())
 }
 
