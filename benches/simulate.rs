@@ -4,21 +4,14 @@
 
 use std::time::Instant;
 
+mod common;
+use common::peak_rss_mb;
+
 use sinscal::io::data::DataFormat;
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
 use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
-
-fn peak_rss_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find(|l| l.starts_with("VmHWM:"))
-        .and_then(|l| l.split_whitespace().nth(1))
-        .and_then(|kb| kb.parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1024.0)
-}
 
 fn config(scheme: &str, effects: Effects) -> SimConfig {
     SimConfig {

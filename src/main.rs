@@ -7,10 +7,15 @@ use clap::{Parser, Subcommand, ValueEnum};
 use rand::SeedableRng;
 
 use sinscal::io::data::DataFormat;
-use sinscal::io::meta::{read_json, Truth};
+use std::sync::atomic::AtomicBool;
+
+use sinscal::calib::plan::{plan, PlanInput};
+use sinscal::calib::{EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal::io::meta::{read_json, write_json, RunMetadata, Truth};
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
+use sinscal::pipeline::calibrate_file;
 use sinscal::sim::{Noise, SchemeRef, SimConfig};
 
 #[derive(Parser)]
@@ -29,6 +34,10 @@ enum Command {
     /// Simulate a calibration run (SPEC §4–5): from a truth file, or from
     /// a scheme and a parameter set.
     Simulate(SimulateArgs),
+    /// Calibrate a run: the 24 parameters with their 1-σ.
+    Calibrate(CalibrateArgs),
+    /// Predict the 1-σ a scheme reaches at a given noise, before any data.
+    Plan(PlanArgs),
     /// Run the calibration server (HTTP API under /api/v1).
     Serve(sinscal::server::ServeArgs),
     /// Manage the server's bearer tokens.
@@ -50,6 +59,58 @@ enum TokenCommand {
         #[arg(long)]
         label: Option<String>,
     },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum EstimatorArg {
+    /// The systematic Kalman filter (with the least-squares cross-check).
+    Kf,
+    /// The velocity-error-rate least squares (with the filter as cross-check).
+    Lsq,
+}
+
+#[derive(clap::Args)]
+struct CalibrateArgs {
+    /// The run's data file (CSV, gzip CSV or f64le).
+    run: PathBuf,
+    /// Its metadata; default: the sidecar beside it (run.csv → run.json).
+    #[arg(long)]
+    meta: Option<PathBuf>,
+    /// Write the full result (SPEC §5 and more) as JSON here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    #[arg(long, value_enum, default_value = "kf")]
+    estimator: EstimatorArg,
+    /// Skip the cross-check with the other estimator.
+    #[arg(long)]
+    no_cross_check: bool,
+}
+
+#[derive(clap::Args)]
+struct PlanArgs {
+    /// Built-in scheme name or a JSON scheme file.
+    #[arg(long)]
+    scheme: String,
+    /// Dwell of a built-in scheme, s.
+    #[arg(long)]
+    dwell: Option<f64>,
+    /// Gyro angle random walk, deg/√h.
+    #[arg(long, default_value_t = 0.0003)]
+    arw: f64,
+    /// Accelerometer velocity random walk, µg/√Hz.
+    #[arg(long, default_value_t = 5.0)]
+    vrw: f64,
+    #[arg(long, default_value_t = 100.0)]
+    rate: f64,
+    #[arg(long, default_value_t = 28.2215)]
+    latitude: f64,
+    /// Assume zero velocity also during rotations (turntable axes through
+    /// the reference point).
+    #[arg(long)]
+    zupt_in_motion: bool,
+    /// Write the plan as JSON here.
+    #[arg(long)]
+    out: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -191,10 +252,95 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The metadata sidecar of a data file: same folder, the name up to its
+/// first dot, `.json` (run.csv.gz → run.json).
+fn sidecar(run: &std::path::Path) -> PathBuf {
+    let name = run.file_name().and_then(|n| n.to_str()).unwrap_or("run");
+    let stem = name.split('.').next().unwrap_or(name);
+    run.with_file_name(format!("{stem}.json"))
+}
+
+fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
+    let meta_path = a.meta.clone().unwrap_or_else(|| sidecar(&a.run));
+    let text =
+        std::fs::read(&meta_path).with_context(|| format!("reading {}", meta_path.display()))?;
+    let meta =
+        RunMetadata::from_json(&text).with_context(|| format!("in {}", meta_path.display()))?;
+    let opts = EstimateOptions {
+        estimator: match a.estimator {
+            EstimatorArg::Kf => EstimatorKind::Kf,
+            EstimatorArg::Lsq => EstimatorKind::Lsq,
+        },
+        cross_check: !a.no_cross_check,
+        ..EstimateOptions::default()
+    };
+    let cancel = AtomicBool::new(false);
+    let mut last_stage = String::new();
+    let result = calibrate_file(
+        &a.run,
+        &meta,
+        &opts,
+        &mut |p| {
+            if p.stage != last_stage {
+                eprintln!("{:>3.0}% {}", 100.0 * p.fraction, p.stage);
+                last_stage = p.stage;
+            }
+        },
+        &cancel,
+    )?;
+    print!("unit {}\n{}", meta.unit_serial, result.table());
+    if let Some(out) = &a.out {
+        write_json(out, &result)?;
+        eprintln!("wrote {}", out.display());
+    }
+    Ok(())
+}
+
+fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
+    let scheme = scheme_ref(&a.scheme)?
+        .resolve(a.dwell)
+        .map_err(anyhow::Error::msg)?;
+    let input = PlanInput {
+        scheme,
+        site: Site::new(a.latitude, 0.0, 0.0),
+        sample_rate_hz: a.rate,
+        noise: NoiseDensity {
+            gyro_arw_deg_rt_h: a.arw,
+            accel_vrw_ug_rt_hz: a.vrw,
+        },
+    };
+    let opts = EstimateOptions {
+        zupt_in_motion: a.zupt_in_motion,
+        ..EstimateOptions::default()
+    };
+    let plan = plan(&input, &opts)?;
+    println!(
+        "scheme {} ({:.2} h), ARW {} deg/sqrt(h), VRW {} ug/sqrt(Hz): predicted 1-sigma",
+        plan.scheme,
+        plan.duration_s / 3600.0,
+        a.arw,
+        a.vrw
+    );
+    for info in sinscal::model::PARAMETERS.iter() {
+        if let Some(p) = plan.parameters.get(info.name) {
+            println!("{:<20} {:>12.5}  {}", info.name, p.sigma, p.unit);
+        }
+    }
+    for w in &plan.warnings {
+        println!("warning: {w}");
+    }
+    if let Some(out) = &a.out {
+        write_json(out, &plan)?;
+    }
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
         Command::Simulate(a) => run_simulate(a),
+        Command::Calibrate(a) => run_calibrate(a),
+        Command::Plan(a) => run_plan(a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Token(TokenCommand::Create {
             role,

@@ -30,6 +30,20 @@ pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>
     ]))
 }
 
+/// How the fine alignment runs.
+#[derive(Clone, Copy, Debug)]
+pub struct FineAlignment {
+    /// Start of the first record's interval, s.
+    pub t0: f64,
+    /// Record interval, s.
+    pub dt: f64,
+    /// Records between zero-velocity updates.
+    pub window: usize,
+    /// Noise densities, rad/√s and m/s/√s.
+    pub arw: f64,
+    pub vrw: f64,
+}
+
 /// Fine alignment: navigates the (compensated) records of the first dwell
 /// from the coarse attitude with zero-velocity updates every `window`
 /// records, and returns the attitude at the dwell's end — which, the unit
@@ -38,12 +52,15 @@ pub fn fine(
     site: &Site,
     c_b_n: &Matrix3<f64>,
     records: impl Iterator<Item = Record>,
-    t0: f64,
-    dt: f64,
-    window: usize,
-    arw: f64,
-    vrw: f64,
+    how: &FineAlignment,
 ) -> Result<Matrix3<f64>, CalibError> {
+    let FineAlignment {
+        t0,
+        dt,
+        window,
+        arw,
+        vrw,
+    } = *how;
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
     let mut p0 = nalgebra::Matrix6::zeros();
     // Coarse tilt is good to a milliradian, heading to some degrees.

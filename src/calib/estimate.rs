@@ -10,15 +10,17 @@ use serde::{Deserialize, Serialize};
 
 use super::align;
 use super::filter::{error_dynamics, Innovation, SystematicFilter};
+use super::lsq::lsq_pass;
 use super::result::{
-    AlignmentReport, CalibrationResult, Convergence, DwellResidual, ParameterEstimate,
+    AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, DwellResidual,
+    ParameterEstimate,
 };
 use super::segment::{DetectOptions, RunSegment, SegmentKind, Segmenter};
 use super::sensitivity::base_columns;
 use super::{CalibError, EstimatorKind, Progress, RecordSource, RunInfo};
 use crate::model::params::paper_magnitude;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{ErrorParameters, Group, N_PARAMS, PARAMETERS};
+use crate::model::{Compensator, ErrorParameters, N_PARAMS, PARAMETERS};
 use crate::nav::attitude::euler_from_dcm;
 use crate::nav::Strapdown;
 use crate::record::Record;
@@ -45,6 +47,12 @@ pub struct EstimateOptions {
     /// σ of a zero-velocity observation, m/s: what the unit may really
     /// move at rest (table vibration), not a tuning knob for the noise.
     pub zupt_sigma_mps: f64,
+    /// Also observe zero velocity while the unit turns. Right only when the
+    /// turntable's axes pass through the unit's reference point (as in
+    /// simulation); off by default, so off-centre tables and manual flips
+    /// are safe. With it the filter gains the rotations' accelerometer
+    /// information.
+    pub zupt_in_motion: bool,
     pub detect: DetectOptions,
     /// Noise densities; `None` measures them from the dwells' increments.
     pub noise: Option<NoiseDensity>,
@@ -65,6 +73,7 @@ impl Default for EstimateOptions {
             converged_sigma: 0.05,
             window_s: 1.0,
             zupt_sigma_mps: 1e-6,
+            zupt_in_motion: false,
             detect: DetectOptions::default(),
             noise: None,
             prior_scale: 4.0,
@@ -252,7 +261,7 @@ pub fn prior_sigma(scale: f64) -> Vec<f64> {
 }
 
 /// Index of the dwell holding time t, if any.
-fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
+pub(super) fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
     let i = segments.partition_point(|s| s.t_end < t);
     segments
         .get(i)
@@ -260,53 +269,50 @@ fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
         .map(|_| i)
 }
 
-struct PassContext<'a> {
-    source: &'a dyn RecordSource,
-    run: &'a RunInfo,
-    opts: &'a EstimateOptions,
-    scan: &'a Prescan,
-    arw: f64,
-    vrw: f64,
-    cancel: &'a AtomicBool,
+/// What every pass over a run shares.
+pub(super) struct PassContext<'a> {
+    pub source: &'a dyn RecordSource,
+    pub run: &'a RunInfo,
+    pub opts: &'a EstimateOptions,
+    pub scan: &'a Prescan,
+    /// Noise densities in use, rad/√s and m/s/√s.
+    pub arw: f64,
+    pub vrw: f64,
+    pub cancel: &'a AtomicBool,
 }
 
-fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
+impl PassContext<'_> {
+    /// Records per window.
+    pub fn window(&self) -> usize {
+        ((self.opts.window_s * self.run.sample_rate_hz).round() as usize).max(1)
+    }
+}
+
+pub(super) fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
     let first = scan
         .segments
         .first()
         .ok_or_else(|| CalibError::Unusable("no segments".into()))?;
     if first.kind != SegmentKind::Dwell {
         return Err(CalibError::Unusable(format!(
-            "the run must begin at rest: it moves from t = {:.2} s (no dwell of at least {} s first)",
-            first.t_start, scan_min_dwell(scan)
+            "the run must begin at rest: it moves from t = {:.2} s without a dwell long enough to align on",
+            first.t_start
         )));
     }
     Ok(first)
 }
 
-fn scan_min_dwell(_scan: &Prescan) -> f64 {
-    DetectOptions::default().min_dwell_s
-}
-
-/// One pass of alignment and the filter over the records compensated with
-/// `params`.
-fn kf_pass(
+/// The attitude at the run's start: coarse alignment from the first
+/// dwell's compensated means, then fine alignment over that dwell.
+pub(super) fn align_start(
     ctx: &PassContext,
-    params: &ErrorParameters,
-    keep_history: bool,
-    progress: &mut dyn FnMut(f64),
-) -> Result<Pass, CalibError> {
-    let run = ctx.run;
-    let site = &run.site;
-    let dt = 1.0 / run.sample_rate_hz;
-    let comp = params.compensator();
+    comp: &Compensator,
+) -> Result<Matrix3<f64>, CalibError> {
+    let dt = 1.0 / ctx.run.sample_rate_hz;
     let dwell1 = first_dwell(ctx.scan)?;
-
-    // Coarse alignment from the first dwell's compensated means.
     let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
     let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
     let c_coarse = align::coarse(&f_b, &w_b)?;
-    let window = ((ctx.opts.window_s * run.sample_rate_hz).round() as usize).max(1);
     let t_align_end = dwell1.t_end;
     let align_records = ctx
         .source
@@ -314,51 +320,54 @@ fn kf_pass(
         .map_while(|r| r.ok())
         .take_while(|r| r.t <= t_align_end + 1e-9)
         .map(|r| comp.record(&r, dt));
-    let c_b_n0 = align::fine(
-        site,
+    align::fine(
+        &ctx.run.site,
         &c_coarse,
         align_records,
-        ctx.scan.t_begin,
-        dt,
-        window,
-        ctx.arw,
-        ctx.vrw,
-    )?;
+        &align::FineAlignment {
+            t0: ctx.scan.t_begin,
+            dt,
+            window: ctx.window(),
+            arw: ctx.arw,
+            vrw: ctx.vrw,
+        },
+    )
+}
 
-    // The systematic filter from the run's start.
-    let prior = prior_sigma(ctx.opts.prior_scale);
-    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-    let mut p0 = Matrix6::zeros();
-    // Attitude left after alignment is what the residual biases imply:
-    // tilt ≈ δb_a/g, heading ≈ δb_g,E/ω_ie,N; generous bounds on both.
-    let tilt = 3.0 * prior[9] / site.gravity();
-    let heading = (3.0 * prior[0] / (site.omega_ie_n().y)).min(0.1);
-    for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
-        p0[(i, i)] = s * s;
-    }
-    let mut kf = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, ctx.opts.zupt_sigma_mps);
-    let mut nav = Strapdown::new(site, &c_b_n0, ctx.scan.t_begin, dt);
+/// What a window's end offers the estimator that walks the run.
+pub(super) struct WindowEnd<'a> {
+    pub t_start: f64,
+    pub t_end: f64,
+    /// 0-based window number.
+    pub index: usize,
+    pub nav: &'a mut Strapdown,
+    /// Set when the callback corrected the navigation.
+    pub corrected: bool,
+}
+
+/// Walks the run once: compensates each record with `comp`, navigates it
+/// from `c_b_n0`, feeds the parameter columns of each record to
+/// `sens`, propagates `sens` at each window's end and hands the window to
+/// `on_window` (which may update and correct).
+pub(super) fn walk(
+    ctx: &PassContext,
+    comp: &Compensator,
+    c_b_n0: &Matrix3<f64>,
+    sens: &mut SystematicFilter,
+    progress: &mut dyn FnMut(f64),
+    mut on_window: impl FnMut(&mut SystematicFilter, &mut WindowEnd) -> Result<(), CalibError>,
+) -> Result<(), CalibError> {
+    let dt = 1.0 / ctx.run.sample_rate_hz;
+    let window = ctx.window();
+    let mut nav = Strapdown::new(&ctx.run.site, c_b_n0, ctx.scan.t_begin, dt);
     let mut c_prev = nav.c_b_n();
-
-    let n_windows = (ctx.scan.n_records as usize).div_ceil(window).max(1);
-    let every = n_windows.div_ceil(ctx.opts.history_points.max(1)).max(1);
-    let mut history = Convergence {
-        names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
-        ..Default::default()
-    };
-    let n_segments = ctx.scan.segments.len();
-    let mut dwell_acc: Vec<DwellAccumulator> = (0..n_segments)
-        .map(|_| DwellAccumulator::new(N_PARAMS))
-        .collect();
-
-    let mut in_window = 0usize;
+    let (mut in_window, mut index, mut count) = (0usize, 0usize, 0u64);
     let mut t_ws = ctx.scan.t_begin;
-    let mut w_index = 0usize;
-    let mut count = 0u64;
     for r in ctx.source.records()? {
         let r = comp.record(&r?, dt);
         nav.update(&r);
         let c_now = nav.c_b_n();
+        // The attitude at mid-record, to first order in the record's turn.
         let c_mid = (c_prev + c_now) * 0.5;
         c_prev = c_now;
         let tau = r.t - 0.5 * dt - t_ws;
@@ -367,41 +376,27 @@ fn kf_pass(
             &Vector3::from(r.dtheta),
             &Vector3::from(r.dv),
             dt,
-            |i, rows, col| kf.add_column(i, rows, &col, tau),
+            |i, rows, col| sens.add_column(i, rows, &col, tau),
         );
         in_window += 1;
         count += 1;
         if in_window == window || count == ctx.scan.n_records {
-            let t_we = r.t;
-            kf.propagate(t_we - t_ws);
-            let d0 = dwell_at(&ctx.scan.segments, t_ws);
-            if d0.is_some() && d0 == dwell_at(&ctx.scan.segments, t_we) {
-                let innov = kf.update_zero_velocity(&nav.v_n)?;
-                if let Some(d) = d0 {
-                    dwell_acc[d].add(&innov);
-                }
-                let (phi, dv) = kf.take_navigation_errors();
-                nav.correct(&phi, &dv, &Vector3::zeros());
+            sens.propagate(r.t - t_ws);
+            let mut end = WindowEnd {
+                t_start: t_ws,
+                t_end: r.t,
+                index,
+                nav: &mut nav,
+                corrected: false,
+            };
+            on_window(sens, &mut end)?;
+            if end.corrected {
                 c_prev = nav.c_b_n();
             }
-            if keep_history && (w_index % every == 0 || count == ctx.scan.n_records) {
-                let (d, s) = kf.parameters()?;
-                history.t.push(t_we);
-                history.value.push(
-                    (0..N_PARAMS)
-                        .map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit)
-                        .collect(),
-                );
-                history.sigma.push(
-                    (0..N_PARAMS)
-                        .map(|i| s[i] / PARAMETERS[i].si_per_unit)
-                        .collect(),
-                );
-            }
-            w_index += 1;
+            index += 1;
             in_window = 0;
-            t_ws = t_we;
-            if w_index % 64 == 0 {
+            t_ws = r.t;
+            if index % 64 == 0 {
                 if ctx.cancel.load(Ordering::Relaxed) {
                     return Err(CalibError::Cancelled);
                 }
@@ -409,6 +404,69 @@ fn kf_pass(
             }
         }
     }
+    Ok(())
+}
+
+/// One pass of alignment and the filter over the records compensated with
+/// `params`.
+fn kf_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
+    let site = &ctx.run.site;
+    let comp = params.compensator();
+    let c_b_n0 = align_start(ctx, &comp)?;
+
+    let prior = prior_sigma(ctx.opts.prior_scale);
+    let mut kf = SystematicFilter::new(
+        error_dynamics(&site.omega_ie_n(), &site.f_rest_n()),
+        &initial_navigation_covariance(ctx),
+        &prior,
+        ctx.arw,
+        ctx.vrw,
+        ctx.opts.zupt_sigma_mps,
+    );
+
+    let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
+    let every = n_windows.div_ceil(ctx.opts.history_points.max(1)).max(1);
+    let mut history = Convergence {
+        names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
+        ..Default::default()
+    };
+    let mut dwell_acc: Vec<DwellAccumulator> = (0..ctx.scan.segments.len())
+        .map(|_| DwellAccumulator::new(N_PARAMS))
+        .collect();
+
+    walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
+        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
+        let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
+        if dwell.is_some() || ctx.opts.zupt_in_motion {
+            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
+            if let Some(d) = dwell {
+                dwell_acc[d].add(&innov);
+            }
+            let (phi, dv) = kf.take_navigation_errors();
+            w.nav.correct(&phi, &dv, &Vector3::zeros());
+            w.corrected = true;
+        }
+        if w.index % every == 0 || w.index + 1 == n_windows {
+            let (d, s) = kf.parameters()?;
+            history.t.push(w.t_end);
+            history.value.push(
+                (0..N_PARAMS)
+                    .map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit)
+                    .collect(),
+            );
+            history.sigma.push(
+                (0..N_PARAMS)
+                    .map(|i| s[i] / PARAMETERS[i].si_per_unit)
+                    .collect(),
+            );
+        }
+        Ok(())
+    })?;
+
     let (delta, sigma) = kf.parameters()?;
     if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {
         return Err(CalibError::Numerical("the filter diverged".into()));
@@ -434,6 +492,22 @@ fn kf_pass(
         history,
         dwell_residuals,
     })
+}
+
+/// Covariance of the navigation errors at the run's start. The attitude
+/// left after alignment is what the residual biases imply (tilt ≈ δb_a/g,
+/// heading ≈ δb_g,E/ω_ie,N); the bounds are three priors wide, so the
+/// prior adds no information the run must supply. The unit starts at rest.
+pub(super) fn initial_navigation_covariance(ctx: &PassContext) -> Matrix6<f64> {
+    let site = &ctx.run.site;
+    let prior = prior_sigma(ctx.opts.prior_scale);
+    let tilt = 3.0 * prior[9] / site.gravity();
+    let heading = (3.0 * prior[0] / site.omega_ie_n().y).min(0.1);
+    let mut p0 = Matrix6::zeros();
+    for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
+        p0[(i, i)] = s * s;
+    }
+    p0
 }
 
 /// Calibrates a run: the one entry point the CLI and the server call.
@@ -475,18 +549,26 @@ pub fn estimate(
     let max_passes = opts.max_passes.max(1);
     let mut last: Option<Pass> = None;
     let mut passes = 0;
+    // The cross-check is one more pass; reserve its share of the progress.
+    let share = if opts.cross_check { 0.8 } else { 0.9 };
     for pass in 1..=max_passes {
         passes = pass;
-        let base = 0.1 + 0.8 * (pass - 1) as f64 / max_passes as f64;
-        let span = 0.8 / max_passes as f64;
-        let stage = format!("filter pass {pass} of at most {max_passes}");
+        let base = 0.05 + share * (pass - 1) as f64 / max_passes as f64;
+        let span = share / max_passes as f64;
+        let stage = format!(
+            "{} pass {pass} of at most {max_passes}",
+            opts.estimator.name()
+        );
         let mut report = |f: f64| {
             progress(Progress {
                 fraction: base + span * f,
                 stage: stage.clone(),
             })
         };
-        let p = kf_pass(&ctx, &params, true, &mut report)?;
+        let p = match opts.estimator {
+            EstimatorKind::Kf => kf_pass(&ctx, &params, &mut report)?,
+            EstimatorKind::Lsq => lsq_as_pass(&ctx, &params, &mut report)?,
+        };
         let mut delta = ErrorParameters::zero();
         delta.si.copy_from_slice(&p.delta);
         params = params.compose(&delta);
@@ -501,7 +583,41 @@ pub fn estimate(
             break;
         }
     }
-    let last = last.ok_or_else(|| CalibError::Numerical("no pass ran".into()))?;
+    let mut last = last.ok_or_else(|| CalibError::Numerical("no pass ran".into()))?;
+
+    let cross_check = if opts.cross_check {
+        let stage = "cross-check".to_string();
+        let mut report = |f: f64| {
+            progress(Progress {
+                fraction: 0.85 + 0.1 * f,
+                stage: stage.clone(),
+            })
+        };
+        // The other estimator, linearised at this one's answer.
+        let other = match opts.estimator {
+            EstimatorKind::Kf => lsq_as_pass(&ctx, &params, &mut report)?,
+            EstimatorKind::Lsq => kf_pass(&ctx, &params, &mut report)?,
+        };
+        let (kf_sigma, lsq_sigma) = match opts.estimator {
+            EstimatorKind::Kf => (&last.sigma, &other.sigma),
+            EstimatorKind::Lsq => (&other.sigma, &last.sigma),
+        };
+        let mut d = ErrorParameters::zero();
+        d.si.copy_from_slice(&other.delta);
+        let other_params = params.compose(&d);
+        let (kf_p, lsq_p) = match opts.estimator {
+            EstimatorKind::Kf => (&params, &other_params),
+            EstimatorKind::Lsq => (&other_params, &params),
+        };
+        let check = cross_check_report(kf_p, kf_sigma, lsq_p, lsq_sigma);
+        if opts.estimator == EstimatorKind::Lsq {
+            last.dwell_residuals = other.dwell_residuals;
+            last.history = other.history;
+        }
+        Some(check)
+    } else {
+        None
+    };
     progress(Progress {
         fraction: 0.95,
         stage: "reporting".into(),
@@ -528,6 +644,13 @@ pub fn estimate(
             },
         );
     }
+    if let Some(check) = &cross_check {
+        for name in &check.flagged {
+            warnings.push(format!(
+                "{name}: the filter and the least-squares cross-check differ by more than 3 combined σ"
+            ));
+        }
+    }
     let n_dwells = scan.dwells().count();
     if n_dwells < 10 {
         warnings.push(format!(
@@ -541,7 +664,7 @@ pub fn estimate(
         stage: "done".into(),
     });
     Ok(CalibrationResult {
-        estimator: "kf".into(),
+        estimator: opts.estimator.name().into(),
         model: "base-24".into(),
         parameters,
         effects: Default::default(),
@@ -560,11 +683,54 @@ pub fn estimate(
         segments: scan.segments.clone(),
         dwell_residuals: last.dwell_residuals,
         convergence: last.history,
-        cross_check: None,
+        cross_check,
     })
 }
 
-/// Groups for reporting, in canonical order.
-pub fn group_of(i: usize) -> Group {
-    PARAMETERS[i].group
+/// A least-squares solution in the form of a filter pass.
+fn lsq_as_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
+    let sol = lsq_pass(ctx, params, progress)?;
+    Ok(Pass {
+        delta: sol.delta,
+        sigma: sol.sigma,
+        c_b_n0: sol.c_b_n0,
+        history: Convergence::default(),
+        dwell_residuals: Vec::new(),
+    })
+}
+
+/// Compares the two estimators parameter by parameter.
+fn cross_check_report(
+    kf: &ErrorParameters,
+    kf_sigma: &[f64],
+    lsq: &ErrorParameters,
+    lsq_sigma: &[f64],
+) -> CrossCheck {
+    let mut entries = Vec::with_capacity(N_PARAMS);
+    let mut flagged = Vec::new();
+    for (i, info) in PARAMETERS.iter().enumerate() {
+        let combined = (kf_sigma[i].powi(2) + lsq_sigma[i].powi(2)).sqrt();
+        let nd = (kf.si[i] - lsq.si[i]).abs() / combined;
+        let flag = nd > 3.0;
+        if flag {
+            flagged.push(info.name.to_string());
+        }
+        entries.push(CrossCheckEntry {
+            name: info.name.to_string(),
+            kf: kf.canonical(i),
+            lsq: lsq.canonical(i),
+            lsq_sigma: lsq_sigma[i] / info.si_per_unit,
+            normalized_difference: nd,
+            flagged: flag,
+        });
+    }
+    CrossCheck {
+        method: "velocity-error-rate least squares over dwell stretches and rotation steps".into(),
+        entries,
+        flagged,
+    }
 }

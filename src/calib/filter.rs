@@ -29,8 +29,6 @@
 //! the identity. The navigation update is the Joseph form, expanded for a
 //! measurement that selects the velocity rows.
 
-#[cfg(test)]
-use nalgebra::Matrix6xX;
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::sensitivity::Rows;
@@ -283,6 +281,15 @@ impl SystematicFilter {
         )
     }
 
+    /// The sensitivity V accumulated since the last call (scaled
+    /// parameters), leaving V zero: with no updates in between, that is the
+    /// B of the whole stretch, which the least-squares cross-check needs.
+    pub fn take_sensitivity(&mut self) -> DMatrix<f64> {
+        let v = self.v.clone();
+        self.v.fill(0.0);
+        v
+    }
+
     /// The scaled parameter estimate J⁻¹ h.
     pub fn scaled_estimate(&self) -> Result<DVector<f64>, CalibError> {
         self.solve_information()
@@ -355,6 +362,7 @@ mod tests {
     /// parameter's error over many trials must be as large as its σ says.
     #[test]
     fn estimates_are_consistent_on_the_linear_model() {
+        use nalgebra::Matrix6xX;
         use rand::{Rng, SeedableRng};
         use rand_distr::StandardNormal;
         let window = 1.0;

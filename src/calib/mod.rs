@@ -6,6 +6,8 @@
 pub mod align;
 pub mod estimate;
 pub mod filter;
+pub mod lsq;
+pub mod plan;
 pub mod result;
 pub mod segment;
 pub mod sensitivity;
@@ -61,6 +63,15 @@ pub enum EstimatorKind {
     Kf,
     /// The velocity-error-rate least squares alone.
     Lsq,
+}
+
+impl EstimatorKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            EstimatorKind::Kf => "kf",
+            EstimatorKind::Lsq => "lsq",
+        }
+    }
 }
 
 /// Progress of a calibration, for the server's job records.

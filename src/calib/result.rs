@@ -102,6 +102,46 @@ pub struct CalibrationResult {
 }
 
 impl CalibrationResult {
+    /// The 24 parameters as a text table in canonical order, with warnings
+    /// and the cross-check's flags.
+    pub fn table(&self) -> String {
+        use std::fmt::Write;
+        let mut out = String::new();
+        let _ = writeln!(
+            out,
+            "{:<20} {:>14} {:>12}  unit        ({} estimator, {}, {} passes)",
+            "parameter", "value", "1-sigma", self.estimator, self.model, self.passes
+        );
+        for info in crate::model::PARAMETERS.iter() {
+            if let Some(p) = self.parameters.get(info.name) {
+                let flag = self
+                    .cross_check
+                    .as_ref()
+                    .is_some_and(|c| c.flagged.iter().any(|f| f == info.name));
+                let _ = writeln!(
+                    out,
+                    "{:<20} {:>14.5} {:>12.5}  {:<10}{}",
+                    info.name,
+                    p.value,
+                    p.sigma,
+                    p.unit,
+                    if flag { "  cross-check differs" } else { "" }
+                );
+            }
+        }
+        for (name, p) in &self.effects {
+            let _ = writeln!(
+                out,
+                "{:<20} {:>14.5} {:>12.5}  {}",
+                name, p.value, p.sigma, p.unit
+            );
+        }
+        for w in &self.warnings {
+            let _ = writeln!(out, "warning: {w}");
+        }
+        out
+    }
+
     /// Value of a parameter by canonical name.
     pub fn value(&self, name: &str) -> Option<f64> {
         self.parameters.get(name).map(|p| p.value)

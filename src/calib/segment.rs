@@ -174,24 +174,13 @@ impl Segmenter {
         self.close_block();
         let mut merged: Vec<Stretch> = Vec::new();
         for s in &self.stretches {
-            let dwell = s.still && s.t_end - s.t_start >= self.opts.min_dwell_s;
+            let mut s = *s;
+            s.still = s.still && s.t_end - s.t_start >= self.opts.min_dwell_s;
             match merged.last_mut() {
-                // A short still stretch is part of the motion around it.
-                Some(m) if !dwell && !m.still => m.absorb(s),
-                Some(m) if !m.still || !dwell => {
-                    let mut s = *s;
-                    s.still = dwell;
-                    if !dwell && m.still {
-                        merged.push(s);
-                    } else {
-                        merged.push(s);
-                    }
-                }
-                _ => {
-                    let mut s = *s;
-                    s.still = dwell;
-                    merged.push(s);
-                }
+                // A still stretch too short for a dwell joins the motion
+                // around it.
+                Some(m) if !s.still && !m.still => m.absorb(&s),
+                _ => merged.push(s),
             }
         }
         let n = merged.len();

@@ -102,10 +102,8 @@ pub struct RunMetadata {
 impl RunMetadata {
     pub fn site(&self) -> Site {
         Site {
-            latitude_deg: self.latitude_deg,
-            longitude_deg: self.longitude_deg,
-            height_m: self.height_m,
             gravity_mps2: self.gravity_mps2,
+            ..Site::new(self.latitude_deg, self.longitude_deg, self.height_m)
         }
     }
 
@@ -168,10 +166,8 @@ pub struct Truth {
 impl Truth {
     pub fn site(&self) -> Site {
         Site {
-            latitude_deg: self.latitude_deg,
-            longitude_deg: self.longitude_deg,
-            height_m: self.height_m,
             gravity_mps2: self.gravity_mps2,
+            ..Site::new(self.latitude_deg, self.longitude_deg, self.height_m)
         }
     }
 

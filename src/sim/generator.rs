@@ -110,6 +110,19 @@ const GL_WEIGHTS: [f64; 5] = [
 /// Largest angle one quadrature piece may turn, rad.
 const MAX_PIECE_ANGLE: f64 = 0.05;
 
+/// Calls `f(t, weight)` at 5-point Gauss–Legendre nodes over [a, b], cut
+/// into pieces that each turn at most `MAX_PIECE_ANGLE` of the `span`.
+fn gauss_legendre(a: f64, b: f64, span: f64, mut f: impl FnMut(f64, f64)) {
+    let pieces = ((span / MAX_PIECE_ANGLE).ceil() as usize).max(1);
+    let h = (b - a) / pieces as f64;
+    for p in 0..pieces {
+        let mid = a + (p as f64 + 0.5) * h;
+        for (x, w) in GL_NODES.iter().zip(GL_WEIGHTS.iter()) {
+            f(mid + 0.5 * h * x, 0.5 * h * w);
+        }
+    }
+}
+
 /// Integrals of the true motion over one gyro interval.
 #[derive(Default)]
 struct GyroIntegrals {
@@ -233,15 +246,10 @@ impl Simulator {
                     // Constant integrand: one node is exact.
                     f(&self.traj.kinematics_in(seg, mid), u1 - u0);
                 } else {
-                    let span = self.traj.angle_span(seg, u0, u1);
-                    let pieces = ((span / MAX_PIECE_ANGLE).ceil() as usize).max(1);
-                    let h = (u1 - u0) / pieces as f64;
-                    for p in 0..pieces {
-                        let c = u0 + (p as f64 + 0.5) * h;
-                        for (x, w) in GL_NODES.iter().zip(GL_WEIGHTS.iter()) {
-                            f(&self.traj.kinematics_in(seg, c + 0.5 * h * x), 0.5 * h * w);
-                        }
-                    }
+                    let traj = &self.traj;
+                    gauss_legendre(u0, u1, traj.angle_span(seg, u0, u1), |t, w| {
+                        f(&traj.kinematics_in(seg, t), w)
+                    });
                 }
             }
             if u1 >= tb {
@@ -303,16 +311,8 @@ impl Simulator {
                 }
                 cuts.push(u1);
                 for c in cuts.windows(2) {
-                    let (c0, c1) = (c[0], c[1]);
-                    let span = self.traj.angle_span(seg, c0, c1);
-                    let pieces = ((span / MAX_PIECE_ANGLE).ceil() as usize).max(1);
-                    let h = (c1 - c0) / pieces as f64;
-                    for p in 0..pieces {
-                        let mid = c0 + (p as f64 + 0.5) * h;
-                        for (x, wgt) in GL_NODES.iter().zip(GL_WEIGHTS.iter()) {
-                            out[axis] += 0.5 * h * wgt * omega(mid + 0.5 * h * x).abs();
-                        }
-                    }
+                    let span = self.traj.angle_span(seg, c[0], c[1]);
+                    gauss_legendre(c[0], c[1], span, |t, w| out[axis] += w * omega(t).abs());
                 }
             }
         }

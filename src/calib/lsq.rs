@@ -1,0 +1,201 @@
+//! The cross-check: the velocity-error-rate method of the seed paper
+//! (its eqs. 15–24 for the 10-position scheme), generalised to any scheme
+//! and solved as one weighted least-squares problem.
+//!
+//! The run is navigated open loop. Each dwell is cut into a few stretches
+//! (nodes at their ends) and each rotation lies between the last node of
+//! one dwell and the first of the next, so the observations are the
+//! velocity changes over every stretch: each dwell's drift, sampled a few
+//! times so its curvature is seen, and each rotation's velocity step. The
+//! true velocity is zero at every node, so the navigated velocity there is
+//! the velocity error itself. Between nodes k and k+1 the error model gives
+//!
+//!   [φ; δv]_{k+1} = A_k [φ; δv]_k + B_k p + w_k,   w_k ~ N(0, Q_k),
+//!
+//! with A_k, Q_k exact for the stretch's length and B_k accumulated record
+//! by record. Unknowns are the parameters p and the attitude error φ_k at
+//! every node; the attitude random walk the gyro noise drives is what w_k
+//! carries, so successive drifts are not treated as independent (at
+//! navigation-grade noise that walk, not the accelerometer noise, limits a
+//! single dwell's drift). Minimising Σ w_kᵀ Q_k⁻¹ w_k plus the priors is a
+//! dense linear problem of 24 + 3K unknowns, solved once by Cholesky.
+//!
+//! It shares the navigation and the error model with the filter but not the
+//! recursion, the feedback or the update schedule, so a disagreement
+//! points at the filter's mechanics.
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+use super::estimate::{
+    align_start, dwell_at, initial_navigation_covariance, prior_sigma, walk, PassContext,
+};
+use super::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
+use super::CalibError;
+use crate::model::{ErrorParameters, N_PARAMS};
+
+/// Stretches each dwell is cut into.
+const STRETCHES_PER_DWELL: usize = 4;
+
+/// A node: the open-loop velocity there and what led to it.
+struct Node {
+    v: Vector3<f64>,
+    /// B of the stretch ending here (scaled parameters).
+    b: DMatrix<f64>,
+    /// Length of the stretch ending here, s.
+    t: f64,
+}
+
+/// The least-squares estimate linearised at `params`: the residual
+/// correction (SI), its σ (SI), and the start attitude used.
+pub(super) struct LsqSolution {
+    pub delta: Vec<f64>,
+    pub sigma: Vec<f64>,
+    pub c_b_n0: Matrix3<f64>,
+}
+
+pub(super) fn lsq_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    progress: &mut dyn FnMut(f64),
+) -> Result<LsqSolution, CalibError> {
+    let site = &ctx.run.site;
+    let comp = params.compensator();
+    let c_b_n0 = align_start(ctx, &comp)?;
+    let prior = prior_sigma(ctx.opts.prior_scale);
+    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
+    let p0 = initial_navigation_covariance(ctx);
+    // Used only to accumulate the parameter columns between nodes.
+    let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
+
+    let window_s = ctx.window() as f64 / ctx.run.sample_rate_hz;
+    let mut nodes: Vec<Node> = vec![Node {
+        v: Vector3::zeros(),
+        b: DMatrix::zeros(NAV, N_PARAMS),
+        t: 0.0,
+    }];
+    let mut since_node = 0.0;
+    let mut inside: Option<(usize, usize)> = None; // (dwell, windows so far)
+    walk(ctx, &comp, &c_b_n0, &mut sens, progress, |sens, w| {
+        since_node += w.t_end - w.t_start;
+        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
+        let d = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
+        let Some(d) = d else {
+            inside = None;
+            return Ok(());
+        };
+        let count = match inside {
+            Some((dd, c)) if dd == d => c + 1,
+            _ => 0,
+        };
+        inside = Some((d, count));
+        let seg = &ctx.scan.segments[d];
+        let capacity = ((seg.t_end - seg.t_start) / window_s).floor().max(1.0) as usize;
+        let stride = capacity.div_ceil(STRETCHES_PER_DWELL).max(1);
+        let last = w.t_end + window_s > seg.t_end;
+        if count == 0 || count % stride == 0 || last {
+            nodes.push(Node {
+                v: w.nav.v_n,
+                b: sens.take_sensitivity(),
+                t: since_node,
+            });
+            since_node = 0.0;
+        }
+        Ok(())
+    })?;
+    if nodes.len() < 3 {
+        return Err(CalibError::Unusable(
+            "too few dwells for the least-squares cross-check".into(),
+        ));
+    }
+    solve(ctx, &f, &p0, &prior, &nodes).map(|(delta, sigma)| LsqSolution {
+        delta,
+        sigma,
+        c_b_n0,
+    })
+}
+
+/// Builds and solves the normal equations.
+fn solve(
+    ctx: &PassContext,
+    f: &nalgebra::Matrix6<f64>,
+    p0: &nalgebra::Matrix6<f64>,
+    prior: &[f64],
+    nodes: &[Node],
+) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
+    let n_p = N_PARAMS;
+    let k_nodes = nodes.len();
+    let n = n_p + 3 * k_nodes;
+    let phi = |k: usize| n_p + 3 * k;
+    let mut normal = DMatrix::<f64>::zeros(n, n);
+    let mut rhs = DVector::<f64>::zeros(n);
+    // Priors: scaled parameters have unit variance; φ at the start as the
+    // filter's.
+    for i in 0..n_p {
+        normal[(i, i)] += 1.0;
+    }
+    let p0_phi_inv = p0
+        .fixed_view::<3, 3>(0, 0)
+        .into_owned()
+        .try_inverse()
+        .ok_or_else(|| CalibError::Numerical("singular attitude prior".into()))?;
+    for i in 0..3 {
+        for j in 0..3 {
+            normal[(phi(0) + i, phi(0) + j)] += p0_phi_inv[(i, j)];
+        }
+    }
+
+    let mut qc = nalgebra::Matrix6::zeros();
+    for i in 0..3 {
+        qc[(i, i)] = ctx.arw * ctx.arw;
+        qc[(3 + i, 3 + i)] = ctx.vrw * ctx.vrw;
+    }
+    for k in 0..k_nodes - 1 {
+        let next = &nodes[k + 1];
+        let a = transition(f, next.t);
+        let q = process_noise(f, &qc, next.t);
+        let w = q
+            .try_inverse()
+            .ok_or_else(|| CalibError::Numerical("singular process noise".into()))?;
+        let w = DMatrix::from_column_slice(6, 6, w.as_slice());
+        // r = L u + d over the unknowns (p, φ_k, φ_{k+1}).
+        let mut l = DMatrix::<f64>::zeros(6, n_p + 6);
+        l.view_mut((0, 0), (6, n_p)).copy_from(&(-&next.b));
+        for i in 0..6 {
+            for j in 0..3 {
+                l[(i, n_p + j)] = -a[(i, j)];
+            }
+        }
+        for j in 0..3 {
+            l[(j, n_p + 3 + j)] = 1.0;
+        }
+        let v_k = nodes[k].v;
+        let a_xv = a.fixed_view::<6, 3>(0, 3) * v_k;
+        let mut d = DVector::<f64>::zeros(6);
+        for i in 0..3 {
+            d[i] = -a_xv[i];
+            d[3 + i] = next.v[i] - a_xv[3 + i];
+        }
+        let ltw = l.transpose() * &w;
+        let block = &ltw * &l;
+        let g = -(&ltw * d);
+        // Scatter into the normal equations: indices of (p, φ_k, φ_{k+1}).
+        let idx: Vec<usize> = (0..n_p)
+            .chain(phi(k)..phi(k) + 3)
+            .chain(phi(k + 1)..phi(k + 1) + 3)
+            .collect();
+        for (a_i, &gi) in idx.iter().enumerate() {
+            rhs[gi] += g[a_i];
+            for (b_i, &gj) in idx.iter().enumerate() {
+                normal[(gi, gj)] += block[(a_i, b_i)];
+            }
+        }
+    }
+    let chol = normal.cholesky().ok_or_else(|| {
+        CalibError::Numerical("least-squares normal equations are singular".into())
+    })?;
+    let u = chol.solve(&rhs);
+    let cov_diag = chol.inverse().diagonal();
+    Ok((0..n_p)
+        .map(|i| (u[i] * prior[i], cov_diag[i].max(0.0).sqrt() * prior[i]))
+        .unzip())
+}

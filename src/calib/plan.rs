@@ -1,0 +1,90 @@
+//! Covariance analysis before any data exists: the 1-σ the filter would
+//! reach on a scheme with a given noise. It runs the very filter on a
+//! noise-free simulated run of an error-free unit with the noise densities
+//! imposed: the σ a Kalman filter reports depends on the motion and the
+//! noise model, not on the measured values.
+
+use std::collections::BTreeMap;
+use std::sync::atomic::AtomicBool;
+
+use serde::{Deserialize, Serialize};
+
+use super::sources::SimSource;
+use super::{estimate, CalibError, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo};
+use crate::model::{Effects, ErrorParameters};
+use crate::nav::Site;
+use crate::sim::{Noise, Scheme, SimConfig};
+
+/// What a plan is for.
+#[derive(Clone, Debug)]
+pub struct PlanInput {
+    pub scheme: Scheme,
+    pub site: Site,
+    pub sample_rate_hz: f64,
+    pub noise: NoiseDensity,
+}
+
+/// Predicted 1-σ of one parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlannedSigma {
+    pub sigma: f64,
+    pub unit: String,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    pub scheme: String,
+    pub duration_s: f64,
+    pub parameters: BTreeMap<String, PlannedSigma>,
+    /// Parameters the scheme leaves poorly observable.
+    pub warnings: Vec<String>,
+}
+
+pub fn plan(input: &PlanInput, opts: &EstimateOptions) -> Result<Plan, CalibError> {
+    let cfg = SimConfig {
+        site: input.site,
+        sample_rate_hz: input.sample_rate_hz,
+        scheme: input.scheme.clone(),
+        params: ErrorParameters::zero(),
+        effects: Effects::none(),
+        noise: Noise::default(),
+        initial_attitude_error_deg: [0.0; 3],
+        seed: 0,
+    };
+    let opts = EstimateOptions {
+        estimator: EstimatorKind::Kf,
+        max_passes: 1,
+        noise: Some(input.noise),
+        cross_check: false,
+        ..opts.clone()
+    };
+    let run = RunInfo {
+        site: input.site,
+        sample_rate_hz: input.sample_rate_hz,
+    };
+    let result = estimate(
+        &SimSource(cfg),
+        &run,
+        &opts,
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )?;
+    Ok(Plan {
+        scheme: input.scheme.name.clone(),
+        duration_s: result.duration_s,
+        parameters: result
+            .parameters
+            .into_iter()
+            .map(|(name, p)| {
+                (
+                    name,
+                    PlannedSigma {
+                        sigma: p.sigma,
+                        unit: p.unit,
+                    },
+                )
+            })
+            .collect(),
+        warnings: result.warnings,
+    })
+}

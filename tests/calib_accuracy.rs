@@ -1,0 +1,312 @@
+//! The estimator against simulated truths (SPEC runs made by `sim`).
+//!
+//! Reference scenario (issue 3): the seed paper's Table 1 truth,
+//! `ten-position-9+9` with 600 s dwells, 100 Hz, ARW 0.0003 deg/√h,
+//! VRW 5 µg/√Hz. Bounds are the paper's Table 1 accuracies.
+
+use std::sync::atomic::AtomicBool;
+
+use sinscal::calib::plan::{plan, PlanInput};
+use sinscal::calib::sources::SimSource;
+use sinscal::calib::{
+    estimate, CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo,
+};
+use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal::nav::Site;
+use sinscal::sim::{Noise, Scheme, SimConfig};
+
+fn site() -> Site {
+    Site::new(28.2215, 112.9924, 50.0)
+}
+
+/// The paper's Table 1 bound for a family, canonical units.
+fn bound(g: Group) -> f64 {
+    match g {
+        Group::GyroBias => 0.00075,
+        Group::GyroScale => 2.0,
+        Group::GyroMisalign => 1.5,
+        Group::AccelBias => 5.0,
+        Group::AccelScale => 2.0,
+        Group::AccelMisalign => 1.5,
+        Group::AccelQuad => 1.47,
+    }
+}
+
+fn config(
+    scheme: &str,
+    dwell: f64,
+    rate: f64,
+    params: ErrorParameters,
+    attitude: [f64; 3],
+    seed: u64,
+) -> SimConfig {
+    SimConfig {
+        site: site(),
+        sample_rate_hz: rate,
+        scheme: Scheme::builtin(scheme, dwell).unwrap(),
+        params,
+        effects: Effects::none(),
+        noise: Noise::default_navigation_grade(),
+        initial_attitude_error_deg: attitude,
+        seed,
+    }
+}
+
+fn calibrate(cfg: &SimConfig, opts: &EstimateOptions) -> CalibrationResult {
+    let run = RunInfo {
+        site: cfg.site,
+        sample_rate_hz: cfg.sample_rate_hz,
+    };
+    estimate(
+        &SimSource(cfg.clone()),
+        &run,
+        opts,
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap()
+}
+
+/// err/σ of every parameter, canonical order.
+fn z_scores(res: &CalibrationResult, truth: &ErrorParameters) -> Vec<f64> {
+    PARAMETERS
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            (res.parameters[p.name].value - truth.canonical(i)) / res.parameters[p.name].sigma
+        })
+        .collect()
+}
+
+/// Asserts every parameter is within its Table 1 bound of the truth.
+///
+/// One bound is tighter than the noise allows to promise: the gyro bias σ
+/// is 0.00022–0.00026 deg/h here (the independent covariance analysis
+/// agrees), so 0.00075 deg/h is 2.9–3.4σ and a run exceeds it for some
+/// axis about once in thirty. A gyro bias beyond the bound is accepted
+/// while within 3.5 of its own σ, and reported.
+fn assert_within_table1(res: &CalibrationResult, truth: &ErrorParameters, what: &str) {
+    for (i, p) in PARAMETERS.iter().enumerate() {
+        let err = res.parameters[p.name].value - truth.canonical(i);
+        let sigma = res.parameters[p.name].sigma;
+        if err.abs() < bound(p.group) {
+            continue;
+        }
+        let statistical = p.group == Group::GyroBias && err.abs() < 3.5 * sigma;
+        eprintln!(
+            "{what}: {} error {err:.6} {} beyond the Table 1 bound {} ({:.2}σ)",
+            p.name,
+            p.unit,
+            bound(p.group),
+            err / sigma
+        );
+        assert!(
+            statistical,
+            "{what}: {} error {err:.6} {} exceeds the Table 1 bound {}",
+            p.name,
+            p.unit,
+            bound(p.group)
+        );
+    }
+}
+
+#[test]
+fn reference_scenario_full_length_meets_table1_and_cross_check_agrees() {
+    let truth = ErrorParameters::paper();
+    let cfg = config("ten-position-9+9", 600.0, 100.0, truth, [0.1, -0.1, 2.0], 1);
+    let res = calibrate(&cfg, &EstimateOptions::default());
+    assert_within_table1(&res, &truth, "reference, seed 1");
+    let check = res
+        .cross_check
+        .as_ref()
+        .expect("cross-check runs by default");
+    assert!(
+        check.flagged.is_empty(),
+        "cross-check flags {:?}",
+        check.flagged
+    );
+    assert_eq!(res.dwell_residuals.len(), 19, "19 dwells detected");
+    assert!(res.warnings.is_empty(), "{:?}", res.warnings);
+    // The measured noise is what was simulated.
+    assert!((res.noise_arw_deg_rt_h / 0.0003 - 1.0).abs() < 0.02);
+    assert!((res.noise_vrw_ug_rt_hz / 5.0 - 1.0).abs() < 0.02);
+
+    // Efficient: the filter's σ is within 1.25× of the plan's prediction.
+    let predicted = plan(
+        &PlanInput {
+            scheme: cfg.scheme.clone(),
+            site: cfg.site,
+            sample_rate_hz: 100.0,
+            noise: NoiseDensity {
+                gyro_arw_deg_rt_h: 0.0003,
+                accel_vrw_ug_rt_hz: 5.0,
+            },
+        },
+        &EstimateOptions::default(),
+    )
+    .unwrap();
+    for p in PARAMETERS.iter() {
+        let ratio = res.parameters[p.name].sigma / predicted.parameters[p.name].sigma;
+        assert!((0.8..1.25).contains(&ratio), "{}: σ/plan {ratio}", p.name);
+    }
+}
+
+#[test]
+fn least_squares_alone_meets_table1() {
+    let truth = ErrorParameters::paper();
+    let cfg = config("ten-position-9+9", 600.0, 50.0, truth, [0.0, 0.0, 0.0], 2);
+    let opts = EstimateOptions {
+        estimator: EstimatorKind::Lsq,
+        cross_check: false,
+        ..EstimateOptions::default()
+    };
+    let res = calibrate(&cfg, &opts);
+    assert_eq!(res.estimator, "lsq");
+    assert_within_table1(&res, &truth, "least squares");
+}
+
+#[test]
+fn paper_truth_five_seeds_within_table1() {
+    let truth = ErrorParameters::paper();
+    let opts = EstimateOptions {
+        cross_check: false,
+        ..EstimateOptions::default()
+    };
+    for seed in 11..16 {
+        let cfg = config(
+            "ten-position-9+9",
+            600.0,
+            100.0,
+            truth,
+            [0.1, -0.1, 2.0],
+            seed,
+        );
+        assert_within_table1(
+            &calibrate(&cfg, &opts),
+            &truth,
+            &format!("paper truth, seed {seed}"),
+        );
+    }
+}
+
+#[test]
+fn random_truths_and_headings_within_table1() {
+    use rand::SeedableRng;
+    let opts = EstimateOptions {
+        cross_check: false,
+        ..EstimateOptions::default()
+    };
+    // Mixed signs up to 2× the paper's magnitudes; starts tilted up to 5°
+    // and turned to any heading.
+    let starts = [
+        [0.0, 0.0, 0.0],
+        [3.0, -4.0, 137.0],
+        [-5.0, 0.0, -100.0],
+        [2.0, 2.0, 250.0],
+        [0.0, 5.0, 45.0],
+    ];
+    for (k, start) in starts.iter().enumerate() {
+        let seed = 21 + k as u64;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let truth = ErrorParameters::random(&mut rng);
+        let cfg = config("ten-position-9+9", 600.0, 100.0, truth, *start, seed);
+        assert_within_table1(
+            &calibrate(&cfg, &opts),
+            &truth,
+            &format!("random truth, seed {seed}, start {start:?}"),
+        );
+    }
+}
+
+#[test]
+fn ten_position_alone_errors_within_3_5_sigma() {
+    let truth = ErrorParameters::paper();
+    let cfg = config("ten-position", 600.0, 100.0, truth, [0.1, -0.1, 2.0], 31);
+    let res = calibrate(&cfg, &EstimateOptions::default());
+    for (p, z) in PARAMETERS.iter().zip(z_scores(&res, &truth)) {
+        assert!(z.abs() < 3.5, "{}: err/σ {z}", p.name);
+    }
+}
+
+/// Honest σ: over 20 seeds, err/σ has an RMS between 0.7 and 1.3 in every
+/// parameter family. Shortened run (300 s dwells, 50 Hz) to keep the suite
+/// fast; the σ is honest or not whatever the length.
+#[test]
+fn sigma_is_honest_over_twenty_seeds() {
+    let opts = EstimateOptions {
+        cross_check: false,
+        ..EstimateOptions::default()
+    };
+    let groups = [
+        Group::GyroBias,
+        Group::GyroScale,
+        Group::GyroMisalign,
+        Group::AccelBias,
+        Group::AccelScale,
+        Group::AccelMisalign,
+        Group::AccelQuad,
+    ];
+    let mut sum_sq = vec![0.0; groups.len()];
+    let mut count = vec![0usize; groups.len()];
+    let truth = ErrorParameters::paper();
+    for seed in 101..121 {
+        let cfg = config(
+            "ten-position-9+9",
+            300.0,
+            50.0,
+            truth,
+            [0.1, -0.1, 2.0],
+            seed,
+        );
+        let z = z_scores(&calibrate(&cfg, &opts), &truth);
+        for (i, p) in PARAMETERS.iter().enumerate() {
+            let g = groups.iter().position(|g| *g == p.group).unwrap();
+            sum_sq[g] += z[i] * z[i];
+            count[g] += 1;
+        }
+    }
+    for (g, group) in groups.iter().enumerate() {
+        let rms = (sum_sq[g] / count[g] as f64).sqrt();
+        eprintln!("{group:?}: rms err/σ {rms:.2}");
+        assert!((0.7..1.3).contains(&rms), "{group:?}: rms err/σ {rms:.2}");
+    }
+}
+
+/// `plan` against an independent covariance analysis of the reference
+/// scenario (zero velocity observed throughout, as that analysis assumes):
+/// 0.00022–0.00026 deg/h, 0.19–0.22 ppm, 0.11–0.21″, 0.24–0.26 µg,
+/// 0.07–0.09 ppm, 0.06–0.18″, 0.25–0.28 µg/g², each range widened by 5 %.
+#[test]
+fn plan_agrees_with_independent_covariance_analysis() {
+    let input = PlanInput {
+        scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
+        site: site(),
+        sample_rate_hz: 100.0,
+        noise: NoiseDensity {
+            gyro_arw_deg_rt_h: 0.0003,
+            accel_vrw_ug_rt_hz: 5.0,
+        },
+    };
+    let opts = EstimateOptions {
+        zupt_in_motion: true,
+        ..EstimateOptions::default()
+    };
+    let p = plan(&input, &opts).unwrap();
+    for info in PARAMETERS.iter() {
+        let (lo, hi) = match info.group {
+            Group::GyroBias => (0.00022, 0.00026),
+            Group::GyroScale => (0.19, 0.22),
+            Group::GyroMisalign => (0.11, 0.21),
+            Group::AccelBias => (0.24, 0.26),
+            Group::AccelScale => (0.07, 0.09),
+            Group::AccelMisalign => (0.06, 0.18),
+            Group::AccelQuad => (0.25, 0.28),
+        };
+        let s = p.parameters[info.name].sigma;
+        assert!(
+            s > lo * 0.95 && s < hi * 1.05,
+            "{}: planned σ {s} outside [{lo}, {hi}]",
+            info.name
+        );
+    }
+}

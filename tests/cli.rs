@@ -1,0 +1,144 @@
+//! The `sinscal` binary end to end: simulate from a truth file, read the
+//! run back, calibrate it, plan a scheme.
+
+use std::process::Command;
+
+use sinscal::io::data::{DataFormat, RecordReader};
+use sinscal::io::meta::{read_json, RunMetadata, Truth};
+use sinscal::sim::simulate;
+
+fn sinscal() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sinscal"))
+}
+
+#[test]
+fn simulate_from_truth_writes_the_run_the_truth_describes() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth_path = dir.path().join("in.json");
+    std::fs::write(
+        &truth_path,
+        r#"{"sample_rate_hz": 50, "latitude_deg": 28.2215, "longitude_deg": 112.9924, "height_m": 50,
+            "parameters": {"gyro_bias_x": 0.05, "gyro_bias_y": -0.03, "gyro_bias_z": 0.01,
+              "gyro_scale_x": 500, "gyro_scale_y": -300, "gyro_scale_z": 100,
+              "gyro_misalign_xy": 200, "gyro_misalign_xz": -100, "gyro_misalign_yz": 50,
+              "accel_bias_x": 200, "accel_bias_y": -100, "accel_bias_z": 50,
+              "accel_scale_x": 500, "accel_scale_y": 300, "accel_scale_z": -200,
+              "accel_misalign_xy": 200, "accel_misalign_xz": 100, "accel_misalign_yx": -100,
+              "accel_misalign_yz": 50, "accel_misalign_zx": 20, "accel_misalign_zy": -20,
+              "accel_quad_x": 490, "accel_quad_y": 100, "accel_quad_z": -50},
+            "noise": {"gyro_arw_deg_rt_h": 0.0003, "accel_vrw_ug_rt_hz": 5},
+            "effects": {"accel_delay": 1.0},
+            "initial_attitude_error_deg": [0.1, -0.1, 2.0],
+            "scheme": {"name": "short", "steps": [{"dwell_s": 30}, {"rotate": {"axis": "y", "angle_deg": 90}}, {"dwell_s": 30}]},
+            "seed": 9}"#,
+    )
+    .unwrap();
+    let out = dir.path().join("run");
+    let status = sinscal()
+        .args(["simulate", "--truth"])
+        .arg(&truth_path)
+        .arg("--out")
+        .arg(&out)
+        .args(["--gzip"])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let truth: Truth = read_json(&out.join("truth.json")).unwrap();
+    let meta: RunMetadata = read_json(&out.join("run.json")).unwrap();
+    assert_eq!(meta.sample_rate_hz, 50.0);
+    assert_eq!(meta.format, DataFormat::Csv);
+    // The records on disk are those the library simulates from the truth
+    // written beside them, to the last bit.
+    let expected: Vec<_> = simulate(&truth.to_sim_config().unwrap()).unwrap().collect();
+    let reader = RecordReader::open(out.join("run.csv.gz"), DataFormat::Csv, 50.0).unwrap();
+    assert!(reader.is_gzip());
+    let got: Vec<_> = reader.collect::<Result<_, _>>().unwrap();
+    assert_eq!(got.len(), expected.len());
+    assert_eq!(got, expected);
+    // 30 + 9.5 + 30 s at 50 Hz.
+    assert_eq!(got.len(), 3475);
+}
+
+#[test]
+fn calibrate_prints_the_table_and_writes_the_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let status = sinscal()
+        .args([
+            "simulate",
+            "--scheme",
+            "ten-position",
+            "--dwell",
+            "60",
+            "--params",
+            "random",
+            "--seed",
+            "4",
+        ])
+        .args(["--rate", "20", "--format", "f64le", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let result_path = dir.path().join("result.json");
+    let output = sinscal()
+        .arg("calibrate")
+        .arg(out.join("run.bin"))
+        .arg("--out")
+        .arg(&result_path)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let table = String::from_utf8(output.stdout).unwrap();
+    for name in ["gyro_bias_x", "accel_misalign_zy", "accel_quad_z"] {
+        assert!(table.contains(name), "{table}");
+    }
+    assert!(table.contains("ug/g^2") && table.contains("arcsec"));
+    let result: serde_json::Value = read_json(&result_path).unwrap();
+    let p = &result["parameters"]["gyro_scale_x"];
+    assert_eq!(p["unit"], "ppm");
+    assert!(p["sigma"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn plan_prints_a_sigma_for_every_parameter() {
+    let output = sinscal()
+        .args([
+            "plan",
+            "--scheme",
+            "ten-position",
+            "--dwell",
+            "120",
+            "--rate",
+            "20",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = String::from_utf8(output.stdout).unwrap();
+    assert_eq!(
+        text.lines()
+            .filter(|l| l.starts_with("gyro_") || l.starts_with("accel_"))
+            .count(),
+        24,
+        "{text}"
+    );
+}
+
+#[test]
+fn simulate_refuses_half_given_options() {
+    let output = sinscal()
+        .args(["simulate", "--scheme", "ten-position", "--out", "/tmp/x"])
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    assert!(String::from_utf8_lossy(&output.stderr).contains("--params"));
+}
