@@ -121,8 +121,10 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
     }
     let winner = app.get_result(r["run_id"].as_str().unwrap()).await;
     // A wakes up and tries to write: fenced out, on every path.
-    let mut fake = sinscal::calib::CalibrationResult::default();
-    fake.estimator = "stale".into();
+    let fake = sinscal::calib::CalibrationResult {
+        estimator: "stale".into(),
+        ..Default::default()
+    };
     assert!(!app.store.complete_job(&a, &fake).await.unwrap());
     assert!(app
         .store

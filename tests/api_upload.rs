@@ -85,7 +85,16 @@ async fn bad_data_is_refused_naming_the_problem_and_nothing_is_stored() {
     nan[1][4] = f64::NAN;
 
     // (what, metadata, body, status, words the detail must contain, line, record)
-    let cases: Vec<(&str, &[u8], Vec<u8>, u16, &str, Option<u64>, Option<u64>)> = vec![
+    type Case<'a> = (
+        &'a str,
+        &'a [u8],
+        Vec<u8>,
+        u16,
+        &'a str,
+        Option<u64>,
+        Option<u64>,
+    );
+    let cases: Vec<Case> = vec![
         (
             "not a number",
             &csv_meta,

@@ -28,6 +28,7 @@ struct Server {
 
 /// Starts the binary on a free port; returns it and the admin token if
 /// this start created one.
+#[allow(clippy::zombie_processes)]
 fn start(data: &Path, log: &Path, extra: &[&str]) -> (Server, Option<String>) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_sinscal"))
         .args(["serve", "--bind", "127.0.0.1:0", "--data-dir"])
@@ -43,6 +44,7 @@ fn start(data: &Path, log: &Path, extra: &[&str]) -> (Server, Option<String>) {
         )
         .spawn()
         .expect("start sinscal serve");
+    // The caller owns the child and waits for it (sigkill / sigterm).
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
     let mut token = None;
     loop {
