@@ -20,6 +20,7 @@ use crate::store::UnitSummary;
 
 const MAX_PAGE: i64 = 1000;
 const DEFAULT_PAGE: i64 = 100;
+const MAX_OFFSET: i64 = 1_000_000_000;
 
 #[derive(Debug, Deserialize)]
 pub struct PageQuery {
@@ -35,9 +36,9 @@ fn page(limit: Option<i64>, offset: Option<i64>) -> Result<(i64, i64), ApiError>
             "limit must be 1 to {MAX_PAGE}, got {limit}"
         )));
     }
-    if offset < 0 {
+    if !(0..=MAX_OFFSET).contains(&offset) {
         return Err(ApiError::BadRequest(format!(
-            "offset must be ≥ 0, got {offset}"
+            "offset must be 0 to {MAX_OFFSET}, got {offset}"
         )));
     }
     Ok((limit, offset))
