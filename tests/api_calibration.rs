@@ -238,7 +238,16 @@ async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
         .map(|u| u["calibrated"].as_i64().unwrap())
         .sum();
     assert_eq!(total, 8, "one result per run");
-    let metrics = app.metrics().await;
+    // The duration histogram is updated just after the job's row commits:
+    // give the last worker a moment.
+    let mut metrics = app.metrics().await;
+    for _ in 0..100 {
+        if metrics.contains("sinscal_job_duration_seconds_count{outcome=\"succeeded\"} 8") {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        metrics = app.metrics().await;
+    }
     assert!(
         metrics.contains("sinscal_jobs{state=\"succeeded\"} 8"),
         "{metrics}"

@@ -385,6 +385,7 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
             }),
         )
         .with_writer(std::io::stderr)
+        .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .try_init();
     let config = Config::from_args(args)?;
     runtime()?.block_on(async move {

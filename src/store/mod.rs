@@ -210,7 +210,7 @@ pub struct HistoryRow {
     pub parameters: String,
 }
 
-/// One parameter's spread over a unit's runs, as SQL aggregates it.
+/// One parameter's spread over a unit's runs.
 #[derive(Clone, Debug, FromRow)]
 pub struct ParamSpread {
     pub name: String,
@@ -847,33 +847,63 @@ impl Store {
 
     /// Per-parameter aggregates over a unit's calibrated runs with
     /// `run_time >= since`, the `last` most recent of them (`None`: all).
+    ///
+    /// Both queries are range scans of the covering index
+    /// `result_params_cover`, already in (name, time) order.
     pub async fn repeatability(
         &self,
         serial: &str,
         since: i64,
         last: Option<i64>,
     ) -> Result<Vec<ParamSpread>, StoreError> {
-        // The mean is computed first so that Σ(v − mean)² does not lose
-        // precision the way Σv² − n·mean² would for values like 500 ppm ± 0.2.
-        Ok(sqlx::query_as(
-            "WITH sel AS (SELECT run_id FROM results
-                          WHERE unit_serial = ?1 AND run_time >= ?2
-                          ORDER BY run_time DESC, run_id DESC LIMIT ?3),
-                  v AS (SELECT p.name, p.unit, p.value,
-                               p.value - LAG(p.value) OVER (PARTITION BY p.name ORDER BY p.run_time, p.run_id) AS d
-                        FROM result_params p
-                        WHERE p.unit_serial = ?1 AND p.run_time >= ?2 AND p.run_id IN (SELECT run_id FROM sel)),
-                  m AS (SELECT name, AVG(value) AS mean FROM v GROUP BY name)
-             SELECT v.name AS name, MAX(v.unit) AS unit, COUNT(*) AS n, m.mean AS mean,
-                    SUM((v.value - m.mean) * (v.value - m.mean)) AS sum_sq,
-                    MIN(v.value) AS min, MAX(v.value) AS max, MAX(ABS(v.d)) AS max_change
-             FROM v JOIN m ON m.name = v.name GROUP BY v.name",
+        // With `last`, the time of the N-th most recent run bounds the scan.
+        let mut from = since;
+        if let Some(n) = last {
+            let nth: Option<i64> = sqlx::query_scalar(
+                "SELECT run_time FROM results WHERE unit_serial = ? AND run_time >= ?
+                 ORDER BY run_time DESC LIMIT 1 OFFSET ?",
+            )
+            .bind(serial)
+            .bind(since)
+            .bind(n - 1)
+            .fetch_optional(&self.read)
+            .await?;
+            if let Some(t) = nth {
+                from = from.max(t);
+            }
+        }
+        // Aggregates in SQL, so only 24 rows cross into Rust (sqlx's SQLite
+        // driver costs microseconds per row). The mean comes first so that
+        // Σ(v − mean)² keeps its precision for values like 500 ppm ± 0.2.
+        let mut out: Vec<ParamSpread> = sqlx::query_as(
+            "SELECT p.name AS name, MAX(p.unit) AS unit, COUNT(*) AS n, m.mean AS mean,
+                    SUM((p.value - m.mean) * (p.value - m.mean)) AS sum_sq,
+                    MIN(p.value) AS min, MAX(p.value) AS max, NULL AS max_change
+             FROM result_params p
+             JOIN (SELECT name, AVG(value) AS mean FROM result_params
+                   WHERE unit_serial = ?1 AND run_time >= ?2 GROUP BY name) m ON m.name = p.name
+             WHERE p.unit_serial = ?1 AND p.run_time >= ?2
+             GROUP BY p.name",
         )
         .bind(serial)
-        .bind(since)
-        .bind(last.unwrap_or(-1))
+        .bind(from)
         .fetch_all(&self.read)
-        .await?)
+        .await?;
+        let changes: Vec<(String, Option<f64>)> = sqlx::query_as(
+            "SELECT name, MAX(ABS(d)) FROM
+               (SELECT name, value - LAG(value) OVER (PARTITION BY name ORDER BY run_time) AS d
+                FROM result_params WHERE unit_serial = ?1 AND run_time >= ?2)
+             GROUP BY name",
+        )
+        .bind(serial)
+        .bind(from)
+        .fetch_all(&self.read)
+        .await?;
+        let changes: BTreeMap<String, Option<f64>> = changes.into_iter().collect();
+        for p in &mut out {
+            p.max_change = changes.get(&p.name).copied().flatten();
+        }
+        Ok(out)
     }
 
     /// Stores a finished result for a run directly (benchmark seeding and
