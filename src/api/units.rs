@@ -283,8 +283,12 @@ async fn repeatability(
             });
             ParameterRepeatability {
                 range: r.max - r.min,
+                unit: PARAMETERS
+                    .iter()
+                    .find(|p| p.name == r.name)
+                    .map_or("", |p| p.unit)
+                    .to_string(),
                 name: r.name,
-                unit: r.unit,
                 n: r.n,
                 mean: r.mean,
                 std_dev,

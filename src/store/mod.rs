@@ -211,10 +211,9 @@ pub struct HistoryRow {
 }
 
 /// One parameter's spread over a unit's runs.
-#[derive(Clone, Debug, FromRow)]
+#[derive(Clone, Debug)]
 pub struct ParamSpread {
     pub name: String,
-    pub unit: String,
     pub n: i64,
     pub mean: f64,
     /// Σ (v − mean)².
@@ -872,38 +871,43 @@ impl Store {
                 from = from.max(t);
             }
         }
-        // Aggregates in SQL, so only 24 rows cross into Rust (sqlx's SQLite
-        // driver costs microseconds per row). The mean comes first so that
-        // Σ(v − mean)² keeps its precision for values like 500 ppm ± 0.2.
-        let mut out: Vec<ParamSpread> = sqlx::query_as(
-            "SELECT p.name AS name, MAX(p.unit) AS unit, COUNT(*) AS n, m.mean AS mean,
-                    SUM((p.value - m.mean) * (p.value - m.mean)) AS sum_sq,
-                    MIN(p.value) AS min, MAX(p.value) AS max, NULL AS max_change
-             FROM result_params p
-             JOIN (SELECT name, AVG(value) AS mean FROM result_params
-                   WHERE unit_serial = ?1 AND run_time >= ?2 GROUP BY name) m ON m.name = p.name
-             WHERE p.unit_serial = ?1 AND p.run_time >= ?2
-             GROUP BY p.name",
-        )
-        .bind(serial)
-        .bind(from)
-        .fetch_all(&self.read)
-        .await?;
-        let changes: Vec<(String, Option<f64>)> = sqlx::query_as(
-            "SELECT name, MAX(ABS(d)) FROM
-               (SELECT name, value - LAG(value) OVER (PARTITION BY name ORDER BY run_time) AS d
-                FROM result_params WHERE unit_serial = ?1 AND run_time >= ?2)
+        // One scan of the covering index, in (name, time) order, aggregated
+        // in SQL so only 24 rows cross into Rust (sqlx's SQLite driver costs
+        // microseconds per row). Σ(v − mean)² is computed about the first
+        // value c as Σ(v − c)² − n (mean − c)², which keeps its precision
+        // for values like 500 ppm ± 0.2 where Σv² − n·mean² would not.
+        let rows = sqlx::query(
+            "SELECT name, COUNT(*), AVG(value), MIN(value), MAX(value),
+                    SUM((value - c) * (value - c)), AVG(value - c), MAX(ABS(d))
+             FROM (SELECT name, value,
+                          FIRST_VALUE(value) OVER w AS c,
+                          value - LAG(value) OVER w AS d
+                   FROM result_params
+                   WHERE unit_serial = ?1 AND run_time >= ?2
+                   WINDOW w AS (PARTITION BY name ORDER BY run_time))
              GROUP BY name",
         )
         .bind(serial)
         .bind(from)
         .fetch_all(&self.read)
         .await?;
-        let changes: BTreeMap<String, Option<f64>> = changes.into_iter().collect();
-        for p in &mut out {
-            p.max_change = changes.get(&p.name).copied().flatten();
-        }
-        Ok(out)
+        Ok(rows
+            .into_iter()
+            .map(|r| {
+                let n: i64 = r.get(1);
+                let shifted_mean: f64 = r.get(6);
+                let sum_sq: f64 = r.get::<f64, _>(5) - n as f64 * shifted_mean * shifted_mean;
+                ParamSpread {
+                    name: r.get(0),
+                    n,
+                    mean: r.get(2),
+                    sum_sq: sum_sq.max(0.0),
+                    min: r.get(3),
+                    max: r.get(4),
+                    max_change: r.get(7),
+                }
+            })
+            .collect())
     }
 
     /// Stores a finished result for a run directly (benchmark seeding and
