@@ -4,15 +4,21 @@
 //! The library is organised by what each module owns (see
 //! `docs/ARCHITECTURE.md`): `nav` (Earth model, attitude algebra,
 //! strapdown), `model` (the 24-parameter error model and the extra effects),
-//! `sim` (schemes and record generation), `io` (run files, metadata, truth).
+//! `sim` (schemes and record generation), `io` (run files, metadata, truth);
+//! and the server: `store` (SQLite), `jobs` (durable queue, workers), `api`
+//! (HTTP), `server` (configuration, application).
 
+pub mod api;
 pub mod calib;
 pub mod diagnose;
 pub mod io;
+pub mod jobs;
 pub mod model;
 pub mod nav;
 pub mod pipeline;
 pub mod record;
+pub mod server;
 pub mod sim;
+pub mod store;
 
 pub use record::Record;

@@ -44,6 +44,27 @@ enum Command {
     /// name the effect outside the base model that explains it, add it
     /// and show the gap shrink.
     Diagnose(DiagnoseArgs),
+    /// Run the calibration server (HTTP API under /api/v1).
+    Serve(sinscal::server::ServeArgs),
+    /// Manage the server's bearer tokens.
+    #[command(subcommand)]
+    Token(TokenCommand),
+}
+
+#[derive(Subcommand)]
+enum TokenCommand {
+    /// Create a token and print it, alone on stdout, once (only its hash
+    /// is stored).
+    Create {
+        /// station (uploads), engineer (reads), admin (tokens, deletes).
+        #[arg(long)]
+        role: sinscal::store::Role,
+        #[arg(long, env = "SINSCAL_DATA_DIR", default_value = "./sinscal-data")]
+        data_dir: PathBuf,
+        /// A note naming the token's holder.
+        #[arg(long)]
+        label: Option<String>,
+    },
 }
 
 #[derive(clap::Args)]
@@ -375,5 +396,15 @@ fn main() -> anyhow::Result<()> {
         Command::Calibrate(a) => run_calibrate(a),
         Command::Plan(a) => run_plan(a),
         Command::Diagnose(a) => run_diagnose(a),
+        Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
+        Command::Token(TokenCommand::Create {
+            role,
+            data_dir,
+            label,
+        }) => {
+            let token = sinscal::server::create_token(&data_dir, role, label.as_deref())?;
+            println!("{token}");
+            Ok(())
+        }
     }
 }

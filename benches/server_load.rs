@@ -1,0 +1,307 @@
+//! Server benchmarks (`cargo bench --bench server_load`):
+//! 1. upload → result for the 3.2 h 100 Hz run, CSV and f64le;
+//! 2. sustained runs per hour with 2 workers (full-length runs);
+//! 3. p50/p99 of history and repeatability reads while both workers are
+//!    busy, the reads coming from a second process over loopback;
+//! 4. the same reads on a database holding 10 000 calibrated runs.
+//!
+//! The second process is this binary again, started with `load`.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+use sinscal::calib::ParameterEstimate;
+use sinscal::io::data::DataFormat;
+use sinscal::io::run::write_simulated_run;
+use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal::nav::Site;
+use sinscal::server::{Application, Config};
+use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal::store::{NewRun, Store};
+
+fn sim(seed: u64) -> SimConfig {
+    SimConfig {
+        site: Site::new(28.2215, 112.9924, 50.0),
+        sample_rate_hz: 100.0,
+        scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
+        params: ErrorParameters::paper(),
+        effects: Effects::none(),
+        noise: Noise {
+            gyro_arw_deg_rt_h: 0.0003,
+            accel_vrw_ug_rt_hz: 5.0,
+        },
+        initial_attitude_error_deg: [0.1, -0.1, 2.0],
+        seed,
+    }
+}
+
+struct Client {
+    http: reqwest::Client,
+    base: String,
+    token: String,
+}
+
+impl Client {
+    async fn upload(&self, serial: &str, meta: &[u8], data: &Path) -> Value {
+        let mut meta: Value = serde_json::from_slice(meta).unwrap();
+        meta["unit_serial"] = Value::String(serial.into());
+        let file = tokio::fs::File::open(data).await.unwrap();
+        let body = reqwest::Body::wrap_stream(tokio_util::io::ReaderStream::new(file));
+        let r = self
+            .http
+            .post(format!("{}/units/{serial}/runs", self.base))
+            .bearer_auth(&self.token)
+            .header("x-sinscal-metadata", serde_json::to_string(&meta).unwrap())
+            .body(body)
+            .send()
+            .await
+            .unwrap();
+        assert!(r.status().is_success(), "{}", r.status());
+        r.json().await.unwrap()
+    }
+
+    async fn wait(&self, job_id: &str) {
+        loop {
+            let j: Value = self
+                .http
+                .get(format!("{}/jobs/{job_id}", self.base))
+                .bearer_auth(&self.token)
+                .send()
+                .await
+                .unwrap()
+                .json()
+                .await
+                .unwrap();
+            match j["state"].as_str().unwrap() {
+                "succeeded" => return,
+                "failed" | "cancelled" => panic!("{j}"),
+                _ => tokio::time::sleep(Duration::from_millis(20)).await,
+            }
+        }
+    }
+}
+
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    sorted[((sorted.len() as f64 - 1.0) * p).round() as usize]
+}
+
+/// The second process: `concurrency` loops of GET history / repeatability
+/// on `serials` for `seconds`; prints one JSON line of latencies (ms).
+async fn load(base: String, token: String, serials: Vec<String>, seconds: f64, concurrency: usize) {
+    let http = reqwest::Client::new();
+    let until = Instant::now() + Duration::from_secs_f64(seconds);
+    let tasks = (0..concurrency).map(|c| {
+        let (http, base, token, serials) =
+            (http.clone(), base.clone(), token.clone(), serials.clone());
+        tokio::spawn(async move {
+            let (mut hist, mut rep) = (Vec::new(), Vec::new());
+            let mut k = c;
+            while Instant::now() < until {
+                let serial = &serials[k % serials.len()];
+                k += 7;
+                for (path, out) in [
+                    ("history?limit=100", &mut hist),
+                    ("repeatability", &mut rep),
+                ] {
+                    let t = Instant::now();
+                    let r = http
+                        .get(format!("{base}/units/{serial}/{path}"))
+                        .bearer_auth(&token)
+                        .send()
+                        .await
+                        .unwrap();
+                    assert!(r.status().is_success());
+                    let _ = r.bytes().await.unwrap();
+                    out.push(t.elapsed().as_secs_f64() * 1e3);
+                }
+            }
+            (hist, rep)
+        })
+    });
+    let (mut hist, mut rep) = (Vec::new(), Vec::new());
+    for t in futures_util::future::join_all(tasks).await {
+        let (h, r) = t.unwrap();
+        hist.extend(h);
+        rep.extend(r);
+    }
+    hist.sort_by(f64::total_cmp);
+    rep.sort_by(f64::total_cmp);
+    println!(
+        "{}",
+        serde_json::json!({
+            "history": {"n": hist.len(), "p50_ms": percentile(&hist, 0.5), "p99_ms": percentile(&hist, 0.99)},
+            "repeatability": {"n": rep.len(), "p50_ms": percentile(&rep, 0.5), "p99_ms": percentile(&rep, 0.99)},
+        })
+    );
+}
+
+fn run_load_process(c: &Client, serials: &[String], seconds: f64) -> std::process::Child {
+    std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "load",
+            &c.base,
+            &c.token,
+            &serials.join(","),
+            &seconds.to_string(),
+            "4",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
+    let mut params = BTreeMap::new();
+    let t0 = 1_700_000_000_000i64;
+    for u in 0..units {
+        let serial = format!("{prefix}-{u:04}");
+        for k in 0..runs_per_unit {
+            params.clear();
+            for (i, p) in PARAMETERS.iter().enumerate() {
+                let v = 100.0 + i as f64 + ((k * 31 + u * 7 + i) % 17) as f64 * 0.01;
+                params.insert(
+                    p.name.to_string(),
+                    ParameterEstimate {
+                        value: v,
+                        sigma: 0.1,
+                        unit: p.unit.to_string(),
+                    },
+                );
+            }
+            let id = uuid::Uuid::new_v4().to_string();
+            let new = NewRun {
+                run_id: id.clone(),
+                job_id: uuid::Uuid::new_v4().to_string(),
+                unit_serial: serial.clone(),
+                sha256: id.clone(),
+                size_bytes: 0,
+                records: 0,
+                format: "f64le".into(),
+                gzip: false,
+                blob_path: format!("runs/seed/{id}.bin"),
+                metadata: "{}".into(),
+                recorded_at: Some(t0 + (k as i64) * 86_400_000),
+                uploaded_at: t0,
+                max_attempts: 3,
+            };
+            store.seed_calibrated_run(&new, &params).await.unwrap();
+        }
+    }
+}
+
+async fn start(
+    dir: &Path,
+    workers: usize,
+) -> (
+    Client,
+    tokio::sync::oneshot::Sender<()>,
+    tokio::task::JoinHandle<()>,
+    Store,
+) {
+    let mut cfg = Config::new(dir);
+    cfg.bind = "127.0.0.1:0".into();
+    cfg.workers = workers;
+    let app = Application::build(cfg).await.unwrap();
+    let client = Client {
+        http: reqwest::Client::new(),
+        base: format!("http://{}/api/v1", app.addr()),
+        token: app.first_admin_token().unwrap().to_string(),
+    };
+    let store = app.store();
+    let (tx, rx) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(async move {
+        app.run_until_stopped(async {
+            let _ = rx.await;
+        })
+        .await
+        .unwrap()
+    });
+    (client, tx, task, store)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    if args.get(1).map(String::as_str) == Some("load") {
+        let serials = args[4].split(',').map(String::from).collect();
+        rt.block_on(load(
+            args[2].clone(),
+            args[3].clone(),
+            serials,
+            args[5].parse().unwrap(),
+            args[6].parse().unwrap(),
+        ));
+        return;
+    }
+    if args.iter().any(|a| a == "--list") {
+        return;
+    }
+    rt.block_on(async {
+        let work = tempfile::tempdir().unwrap();
+        eprintln!("simulating the 3.2 h run (CSV and f64le)…");
+        let csv = write_simulated_run(&sim(1), &work.path().join("csv"), DataFormat::Csv, false, "B-CSV").unwrap();
+        let bin = write_simulated_run(&sim(1), &work.path().join("bin"), DataFormat::F64le, false, "B-BIN").unwrap();
+        let meta_csv = std::fs::read(&csv.metadata).unwrap();
+        let meta_bin = std::fs::read(&bin.metadata).unwrap();
+
+        let data = tempfile::tempdir().unwrap();
+        let (c, stop, task, store) = start(data.path(), 2).await;
+
+        // 1. Upload → result, one at a time.
+        for (name, meta, file) in [("CSV", &meta_csv, &csv.data), ("f64le", &meta_bin, &bin.data)] {
+            let size = std::fs::metadata(file).unwrap().len();
+            let t = Instant::now();
+            let a = c.upload(&format!("LAT-{name}"), meta, file).await;
+            let uploaded = t.elapsed().as_secs_f64();
+            c.wait(a["job_id"].as_str().unwrap()).await;
+            println!(
+                "upload→result, 3.2 h 100 Hz {name} ({:.0} MB): {:.2} s (upload {uploaded:.2} s)",
+                size as f64 / 1e6,
+                t.elapsed().as_secs_f64()
+            );
+        }
+
+        // 2 + 3. Eight full runs queued at once on 2 workers; while they
+        // run, a second process reads history and repeatability.
+        seed(&store, 20, 50, "HIST").await;
+        let serials: Vec<String> = (0..20).map(|u| format!("HIST-{u:04}")).collect();
+        let n = 8;
+        let t = Instant::now();
+        let mut jobs = Vec::new();
+        for k in 0..n {
+            jobs.push(c.upload(&format!("THR-{k}"), &meta_bin, &bin.data).await);
+        }
+        let loader = run_load_process(&c, &serials, 8.0);
+        for j in &jobs {
+            c.wait(j["job_id"].as_str().unwrap()).await;
+        }
+        let hours = t.elapsed().as_secs_f64() / 3600.0;
+        println!("sustained: {n} runs (3.2 h, f64le) in {:.1} s on 2 workers = {:.0} runs/hour", hours * 3600.0, n as f64 / hours);
+        let out = loader.wait_with_output().unwrap();
+        println!("reads while both workers are busy (50 runs per unit, 4 concurrent clients in a second process): {}", String::from_utf8_lossy(&out.stdout).trim());
+        let _ = stop.send(());
+        task.await.unwrap();
+
+        // 4. A database holding 10 000 calibrated runs.
+        let big = tempfile::tempdir().unwrap();
+        let (c, stop, task, store) = start(big.path(), 2).await;
+        let t = Instant::now();
+        seed(&store, 100, 100, "DB").await;
+        eprintln!("seeded 10 000 runs in {:.1} s", t.elapsed().as_secs_f64());
+        let serials: Vec<String> = (0..100).map(|u| format!("DB-{u:04}")).collect();
+        let out = run_load_process(&c, &serials, 5.0).wait_with_output().unwrap();
+        println!("reads on 10 000 runs (100 units × 100 runs, idle workers, second process): {}", String::from_utf8_lossy(&out.stdout).trim());
+        let t = Instant::now();
+        seed(&store, 1, 10_000, "ONE").await;
+        eprintln!("seeded 10 000 more runs for one unit in {:.1} s", t.elapsed().as_secs_f64());
+        let out = run_load_process(&c, &["ONE-0000".to_string()], 5.0).wait_with_output().unwrap();
+        println!("reads of one unit holding 10 000 runs (history page of 100; repeatability over all 10 000): {}", String::from_utf8_lossy(&out.stdout).trim());
+        let _ = stop.send(());
+        task.await.unwrap();
+    });
+}

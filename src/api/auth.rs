@@ -1,0 +1,86 @@
+//! Bearer tokens with roles. A token is 32 random bytes shown once; the
+//! database holds only its sha256, so a leaked database grants nothing.
+//! Tokens are never logged.
+
+use axum::extract::FromRequestParts;
+use axum::http::header::AUTHORIZATION;
+use axum::http::request::Parts;
+use rand::RngCore;
+use sha2::{Digest, Sha256};
+
+use super::error::ApiError;
+use super::AppState;
+use crate::store::Role;
+
+/// Prefix of every token, so that a token pasted somewhere is recognisable
+/// (secret scanners) and a typo in the scheme is caught early.
+const TOKEN_PREFIX: &str = "sinscal_";
+
+/// A new random token and its stored hash.
+pub fn new_token() -> (String, String) {
+    let mut bytes = [0u8; 32];
+    rand::rngs::OsRng.fill_bytes(&mut bytes);
+    let token = format!("{TOKEN_PREFIX}{}", hex::encode(bytes));
+    let hash = hash_token(&token);
+    (token, hash)
+}
+
+pub fn hash_token(token: &str) -> String {
+    hex::encode(Sha256::digest(token.as_bytes()))
+}
+
+/// The caller, authenticated by its bearer token.
+#[derive(Clone, Debug)]
+pub struct Auth {
+    pub token_id: String,
+    pub role: Role,
+}
+
+impl Auth {
+    /// Allows the call if the caller's role is one of `roles`.
+    pub fn require(&self, roles: &[Role]) -> Result<(), ApiError> {
+        if roles.contains(&self.role) {
+            Ok(())
+        } else {
+            Err(ApiError::Forbidden(match roles {
+                [Role::Admin] => "admin",
+                [Role::Station, Role::Admin] => "station or admin",
+                [Role::Engineer, Role::Admin] => "engineer or admin",
+                _ => "station, engineer or admin",
+            }))
+        }
+    }
+}
+
+/// Who may do what.
+pub mod roles {
+    use crate::store::Role;
+    /// Upload runs.
+    pub const UPLOAD: &[Role] = &[Role::Station, Role::Admin];
+    /// Read a run or a job: stations follow the Location of their uploads.
+    pub const FOLLOW: &[Role] = &[Role::Station, Role::Engineer, Role::Admin];
+    /// Read results, units, history, statistics; cancel jobs.
+    pub const ENGINEER: &[Role] = &[Role::Engineer, Role::Admin];
+    /// Tokens and deletes.
+    pub const ADMIN: &[Role] = &[Role::Admin];
+}
+
+impl FromRequestParts<AppState> for Auth {
+    type Rejection = ApiError;
+
+    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, ApiError> {
+        let header = parts
+            .headers
+            .get(AUTHORIZATION)
+            .and_then(|v| v.to_str().ok())
+            .ok_or(ApiError::Unauthenticated)?;
+        let (scheme, token) = header.split_once(' ').ok_or(ApiError::Unauthenticated)?;
+        if !scheme.eq_ignore_ascii_case("bearer") || !token.trim().starts_with(TOKEN_PREFIX) {
+            return Err(ApiError::Unauthenticated);
+        }
+        match state.store.token_role(&hash_token(token.trim())).await? {
+            Some((token_id, role)) => Ok(Auth { token_id, role }),
+            None => Err(ApiError::Unauthenticated),
+        }
+    }
+}

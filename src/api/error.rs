@@ -1,0 +1,248 @@
+//! The one place where errors become HTTP responses: RFC 7807
+//! `application/problem+json`, every status from a variant of [`ApiError`].
+
+use axum::http::{header, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use serde::Serialize;
+
+use crate::io::data::{DataError, Position};
+use crate::store::StoreError;
+
+pub const PROBLEM_JSON: &str = "application/problem+json";
+
+/// Where in an uploaded data file a problem was found.
+#[derive(Clone, Copy, Debug, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ProblemPosition {
+    Line(u64),
+    Record(u64),
+}
+
+/// Everything a handler can answer besides success.
+#[derive(Debug, thiserror::Error)]
+pub enum ApiError {
+    /// 400: the request is malformed (a missing part, a bad parameter).
+    #[error("{0}")]
+    BadRequest(String),
+    /// 401: no bearer token, or one that is unknown or revoked.
+    #[error("a valid bearer token is required")]
+    Unauthenticated,
+    /// 403: the token's role may not do this.
+    #[error("this needs the role {0}")]
+    Forbidden(&'static str),
+    /// 404: no such resource.
+    #[error("{0}")]
+    NotFound(String),
+    /// 405: the path exists, the method does not.
+    #[error("method not allowed")]
+    MethodNotAllowed,
+    /// 409: the resource's state forbids this now.
+    #[error("{0}")]
+    Conflict(String),
+    /// 413: the body exceeds the configured limit.
+    #[error("{0}")]
+    PayloadTooLarge(String),
+    /// 422: the metadata is invalid.
+    #[error("{0}")]
+    InvalidMetadata(String),
+    /// 422: the run data is invalid; names the line or record.
+    #[error("{0}")]
+    InvalidData(#[from] DataError),
+    /// 503: the queue is full or the server is stopping; retry later.
+    #[error("{detail}")]
+    Unavailable { detail: String, retry_after_s: u64 },
+    /// 500: logged with its cause chain, answered opaquely.
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+impl From<StoreError> for ApiError {
+    fn from(e: StoreError) -> Self {
+        ApiError::Internal(e.to_string())
+    }
+}
+
+impl From<std::io::Error> for ApiError {
+    fn from(e: std::io::Error) -> Self {
+        ApiError::Internal(format!("I/O: {e}"))
+    }
+}
+
+impl From<axum::extract::rejection::PathRejection> for ApiError {
+    fn from(e: axum::extract::rejection::PathRejection) -> Self {
+        ApiError::BadRequest(e.body_text())
+    }
+}
+
+impl From<axum::extract::rejection::QueryRejection> for ApiError {
+    fn from(e: axum::extract::rejection::QueryRejection) -> Self {
+        ApiError::BadRequest(e.body_text())
+    }
+}
+
+impl From<axum::extract::rejection::JsonRejection> for ApiError {
+    fn from(e: axum::extract::rejection::JsonRejection) -> Self {
+        if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+            ApiError::PayloadTooLarge(e.body_text())
+        } else {
+            ApiError::BadRequest(e.body_text())
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct Problem<'a> {
+    #[serde(rename = "type")]
+    kind: &'a str,
+    title: &'a str,
+    status: u16,
+    detail: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    line: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    record: Option<u64>,
+}
+
+/// A problem+json response for a status with no more to say than its
+/// reason phrase (used for responses produced outside the handlers).
+pub fn problem_response(status: StatusCode, detail: String) -> Response {
+    let title = status.canonical_reason().unwrap_or("Error");
+    render(status, "about:blank", title, detail, None)
+}
+
+fn render(
+    status: StatusCode,
+    kind: &str,
+    title: &str,
+    detail: String,
+    at: Option<ProblemPosition>,
+) -> Response {
+    let (line, record) = match at {
+        Some(ProblemPosition::Line(l)) => (Some(l), None),
+        Some(ProblemPosition::Record(r)) => (None, Some(r)),
+        None => (None, None),
+    };
+    let body = Problem {
+        kind,
+        title,
+        status: status.as_u16(),
+        detail,
+        line,
+        record,
+    };
+    let json = serde_json::to_vec(&body).unwrap_or_else(|_| b"{}".to_vec());
+    let mut resp = (status, json).into_response();
+    resp.headers_mut()
+        .insert(header::CONTENT_TYPE, HeaderValue::from_static(PROBLEM_JSON));
+    resp
+}
+
+impl IntoResponse for ApiError {
+    fn into_response(self) -> Response {
+        let detail = self.to_string();
+        match self {
+            ApiError::BadRequest(_) => render(
+                StatusCode::BAD_REQUEST,
+                "about:blank",
+                "Bad Request",
+                detail,
+                None,
+            ),
+            ApiError::Unauthenticated => {
+                let mut r = render(
+                    StatusCode::UNAUTHORIZED,
+                    "about:blank",
+                    "Unauthorized",
+                    detail,
+                    None,
+                );
+                r.headers_mut()
+                    .insert(header::WWW_AUTHENTICATE, HeaderValue::from_static("Bearer"));
+                r
+            }
+            ApiError::Forbidden(_) => render(
+                StatusCode::FORBIDDEN,
+                "about:blank",
+                "Forbidden",
+                detail,
+                None,
+            ),
+            ApiError::NotFound(_) => render(
+                StatusCode::NOT_FOUND,
+                "about:blank",
+                "Not Found",
+                detail,
+                None,
+            ),
+            ApiError::MethodNotAllowed => render(
+                StatusCode::METHOD_NOT_ALLOWED,
+                "about:blank",
+                "Method Not Allowed",
+                detail,
+                None,
+            ),
+            ApiError::Conflict(_) => render(
+                StatusCode::CONFLICT,
+                "about:blank",
+                "Conflict",
+                detail,
+                None,
+            ),
+            ApiError::PayloadTooLarge(_) => render(
+                StatusCode::PAYLOAD_TOO_LARGE,
+                "about:blank",
+                "Payload Too Large",
+                detail,
+                None,
+            ),
+            ApiError::InvalidMetadata(_) => render(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "urn:sinscal:problem:invalid-metadata",
+                "Invalid run metadata",
+                detail,
+                None,
+            ),
+            ApiError::InvalidData(e) => {
+                let at = e.position().map(|p| match p {
+                    Position::Line(l) => ProblemPosition::Line(l),
+                    Position::Record { number, .. } => ProblemPosition::Record(number),
+                });
+                let (status, title) = match e {
+                    DataError::TooLarge { .. } => {
+                        (StatusCode::PAYLOAD_TOO_LARGE, "Run data too large")
+                    }
+                    _ => (StatusCode::UNPROCESSABLE_ENTITY, "Invalid run data"),
+                };
+                render(
+                    status,
+                    "urn:sinscal:problem:invalid-data",
+                    title,
+                    detail,
+                    at,
+                )
+            }
+            ApiError::Unavailable { retry_after_s, .. } => {
+                let mut r = render(
+                    StatusCode::SERVICE_UNAVAILABLE,
+                    "about:blank",
+                    "Service Unavailable",
+                    detail,
+                    None,
+                );
+                r.headers_mut()
+                    .insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
+                r
+            }
+            ApiError::Internal(cause) => {
+                tracing::error!(cause, "internal error");
+                render(
+                    StatusCode::INTERNAL_SERVER_ERROR,
+                    "about:blank",
+                    "Internal Server Error",
+                    "internal error; the server log has the cause".into(),
+                    None,
+                )
+            }
+        }
+    }
+}

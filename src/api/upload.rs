@@ -1,0 +1,548 @@
+//! `POST /units/{serial}/runs`: a run streamed to disk while it is hashed
+//! and validated, acknowledged only once it is durable.
+//!
+//! The body never sits in memory: chunks go through a bounded channel to a
+//! blocking thread that writes them to `runs/tmp/<uuid>.part`, hashes them
+//! and feeds them to [`RecordReader`], which checks every record. On any
+//! refusal the temp file is removed. On success: fsync, rename to
+//! `runs/<ab>/<run uuid>.<ext>` (a path made only of the server's own
+//! UUID), fsync the directory, then the run and job rows in one
+//! transaction, then 202.
+
+use std::io::{self, BufWriter, Read, Write};
+use std::path::{Path as FsPath, PathBuf};
+use std::sync::atomic::Ordering;
+
+use axum::body::Bytes;
+use axum::extract::rejection::{PathRejection, QueryRejection};
+use axum::extract::{FromRequest, Multipart, Path, Query, Request, State};
+use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
+use axum::response::{IntoResponse, Response};
+use axum::Json;
+use bytes::Buf;
+use futures_util::{Stream, StreamExt, TryStreamExt};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use super::auth::{roles, Auth};
+use super::error::ApiError;
+use super::AppState;
+use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
+use crate::io::meta::{validate_serial, RunMetadata};
+use crate::server::metrics::UploadOutcome;
+use crate::store::{now_ms, InsertOutcome, NewRun, RunRow};
+
+/// Header carrying the metadata JSON of a raw (non-multipart) upload.
+pub const METADATA_HEADER: &str = "x-sinscal-metadata";
+/// Largest metadata document accepted.
+const MAX_METADATA_BYTES: usize = 256 * 1024;
+/// After the data is refused, read at most this much more of the body so
+/// the client sees the answer rather than a reset connection; a hostile
+/// client cannot make the server read its whole body.
+const MAX_DRAIN_BYTES: u64 = 8 << 20;
+
+#[derive(Debug, Deserialize)]
+pub struct UploadQuery {
+    metadata: Option<String>,
+}
+
+/// The answer to an upload (202 for a new run, 200 for one already stored).
+#[derive(Debug, Serialize)]
+pub struct UploadAnswer {
+    pub run_id: String,
+    pub job_id: String,
+    /// False when the same bytes were already stored for this unit.
+    pub created: bool,
+    pub sha256: String,
+    pub run_url: String,
+    pub job_url: String,
+}
+
+/// A temp file removed on drop unless it was persisted.
+struct TempFile {
+    path: PathBuf,
+    keep: bool,
+}
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        if !self.keep {
+            let _ = std::fs::remove_file(&self.path);
+        }
+    }
+}
+
+/// A body received, hashed and (when the metadata came first) validated.
+struct Ingested {
+    temp: TempFile,
+    sha256: String,
+    size: u64,
+    /// Records and gzip-ness, once validated.
+    checked: Option<(u64, bool)>,
+}
+
+#[derive(Debug, thiserror::Error)]
+enum SinkError {
+    #[error(transparent)]
+    Data(#[from] DataError),
+    #[error("writing the upload: {0}")]
+    Io(#[from] io::Error),
+}
+
+impl From<SinkError> for ApiError {
+    fn from(e: SinkError) -> Self {
+        match e {
+            SinkError::Data(d) => ApiError::InvalidData(d),
+            SinkError::Io(e) => ApiError::from(e),
+        }
+    }
+}
+
+/// The reading end of the body channel: every chunk read is first written
+/// to the temp file and hashed, so what is validated is what is stored.
+struct Tee {
+    rx: tokio::sync::mpsc::Receiver<Bytes>,
+    current: Bytes,
+    file: BufWriter<std::fs::File>,
+    hasher: Sha256,
+    written: u64,
+    /// A failure of our disk, kept apart so that it is not reported to the
+    /// client as a fault of its data.
+    write_error: Option<io::Error>,
+}
+
+impl Tee {
+    fn next_chunk(&mut self) -> io::Result<bool> {
+        match self.rx.blocking_recv() {
+            Some(chunk) => {
+                self.hasher.update(&chunk);
+                self.written += chunk.len() as u64;
+                if let Err(e) = self.file.write_all(&chunk) {
+                    let msg = e.to_string();
+                    self.write_error = Some(e);
+                    return Err(io::Error::other(msg));
+                }
+                self.current = chunk;
+                Ok(true)
+            }
+            None => Ok(false),
+        }
+    }
+}
+
+impl Read for Tee {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        while self.current.is_empty() {
+            if !self.next_chunk()? {
+                return Ok(0);
+            }
+        }
+        let n = buf.len().min(self.current.len());
+        buf[..n].copy_from_slice(&self.current[..n]);
+        self.current.advance(n);
+        Ok(n)
+    }
+}
+
+/// sha256 (hex), bytes written, and (records, gzip) when validated.
+type Sunk = (String, u64, Option<(u64, bool)>);
+
+/// The blocking half of an upload: write, hash, and validate if `check`
+/// says how.
+fn sink(
+    rx: tokio::sync::mpsc::Receiver<Bytes>,
+    file: std::fs::File,
+    check: Option<(DataFormat, f64, ReadLimits)>,
+) -> Result<Sunk, SinkError> {
+    let mut tee = Tee {
+        rx,
+        current: Bytes::new(),
+        file: BufWriter::with_capacity(1 << 20, file),
+        hasher: Sha256::new(),
+        written: 0,
+        write_error: None,
+    };
+    let checked = match check {
+        Some((format, rate, limits)) => {
+            let outcome = count_records(&mut tee, format, rate, limits);
+            if let Some(e) = tee.write_error.take() {
+                return Err(SinkError::Io(e));
+            }
+            Some(outcome?)
+        }
+        None => None,
+    };
+    // Anything the reader did not consume (nothing for a valid file, whose
+    // reader reads to the end) is still part of the stored bytes.
+    while tee.next_chunk()? {}
+    let file = tee.file.into_inner().map_err(|e| e.into_error())?;
+    file.sync_all()?;
+    Ok((hex::encode(tee.hasher.finalize()), tee.written, checked))
+}
+
+fn count_records(
+    reader: impl Read,
+    format: DataFormat,
+    rate: f64,
+    limits: ReadLimits,
+) -> Result<(u64, bool), DataError> {
+    let mut records = RecordReader::new(reader, format, rate, limits)?;
+    let mut n = 0;
+    for r in records.by_ref() {
+        r?;
+        n += 1;
+    }
+    Ok((n, records.is_gzip()))
+}
+
+fn read_limits(st: &AppState) -> ReadLimits {
+    ReadLimits {
+        max_decompressed_bytes: Some(st.config.max_decompressed_bytes),
+        ..ReadLimits::default()
+    }
+}
+
+/// Streams a body into a temp file, validating it against `meta` if given.
+async fn ingest<S>(
+    st: &AppState,
+    mut body: S,
+    meta: Option<&RunMetadata>,
+) -> Result<Ingested, ApiError>
+where
+    S: Stream<Item = Result<Bytes, ApiError>> + Unpin,
+{
+    let tmp_dir = st.config.data_dir.join("runs").join("tmp");
+    let temp = TempFile {
+        path: tmp_dir.join(format!("{}.part", uuid::Uuid::new_v4())),
+        keep: false,
+    };
+    let file = std::fs::File::create(&temp.path)?;
+    let (tx, rx) = tokio::sync::mpsc::channel::<Bytes>(16);
+    let check = meta.map(|m| (m.format, m.sample_rate_hz, read_limits(st)));
+    let task = tokio::task::spawn_blocking(move || sink(rx, file, check));
+    let mut received = 0u64;
+    let mut drained: Option<u64> = None;
+    let mut body_error = None;
+    while let Some(chunk) = body.next().await {
+        let chunk = match chunk {
+            Ok(c) => c,
+            Err(e) => {
+                body_error = Some(e);
+                break;
+            }
+        };
+        received += chunk.len() as u64;
+        match &mut drained {
+            None => {
+                if tx.send(chunk).await.is_err() {
+                    // The validator refused the data; its error is the answer.
+                    drained = Some(0);
+                }
+            }
+            Some(d) => {
+                *d += chunk.len() as u64;
+                if *d > MAX_DRAIN_BYTES {
+                    break;
+                }
+            }
+        }
+    }
+    drop(tx);
+    st.metrics.add_upload_bytes(received);
+    let sunk = task
+        .await
+        .map_err(|e| ApiError::Internal(format!("upload task: {e}")))?;
+    if let Some(e) = body_error {
+        return Err(e);
+    }
+    let (sha256, size, checked) = sunk?;
+    Ok(Ingested {
+        temp,
+        sha256,
+        size,
+        checked,
+    })
+}
+
+fn parse_metadata(text: &[u8], serial: &str) -> Result<RunMetadata, ApiError> {
+    let meta =
+        RunMetadata::from_json(text).map_err(|e| ApiError::InvalidMetadata(e.to_string()))?;
+    if meta.unit_serial != serial {
+        return Err(ApiError::InvalidMetadata(format!(
+            "metadata unit_serial {:?} differs from the unit in the path {serial:?}",
+            meta.unit_serial
+        )));
+    }
+    if let Some(t) = &meta.recorded_at {
+        chrono::DateTime::parse_from_rfc3339(t).map_err(|e| {
+            ApiError::InvalidMetadata(format!("recorded_at {t:?} is not RFC 3339: {e}"))
+        })?;
+    }
+    Ok(meta)
+}
+
+fn body_error(e: axum::Error, limit: u64) -> ApiError {
+    let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
+    while let Some(s) = source {
+        if s.is::<http_body_util::LengthLimitError>() {
+            return ApiError::PayloadTooLarge(format!(
+                "the request body exceeds the limit of {limit} bytes"
+            ));
+        }
+        source = s.source();
+    }
+    ApiError::BadRequest(format!("reading the request body failed: {e}"))
+}
+
+fn multipart_error(e: axum::extract::multipart::MultipartError) -> ApiError {
+    if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
+        ApiError::PayloadTooLarge(e.body_text())
+    } else {
+        ApiError::BadRequest(e.body_text())
+    }
+}
+
+fn answer(status: StatusCode, run_id: &str, job_id: &str, sha256: &str) -> Response {
+    let run_url = format!("/api/v1/runs/{run_id}");
+    let body = UploadAnswer {
+        run_id: run_id.to_string(),
+        job_id: job_id.to_string(),
+        created: status == StatusCode::ACCEPTED,
+        sha256: sha256.to_string(),
+        job_url: format!("/api/v1/jobs/{job_id}"),
+        run_url: run_url.clone(),
+    };
+    let mut resp = (status, Json(body)).into_response();
+    if let Ok(v) = HeaderValue::from_str(&run_url) {
+        resp.headers_mut().insert(header::LOCATION, v);
+    }
+    resp
+}
+
+fn existing_answer(run: &RunRow) -> Response {
+    answer(StatusCode::OK, &run.id, &run.job_id, &run.sha256)
+}
+
+pub fn queue_full() -> ApiError {
+    ApiError::Unavailable {
+        detail: "the calibration queue is full; retry later".into(),
+        retry_after_s: 30,
+    }
+}
+
+/// fsyncs a directory so that a rename into it survives power loss.
+fn sync_dir(dir: &FsPath) -> io::Result<()> {
+    std::fs::File::open(dir)?.sync_all()
+}
+
+pub async fn upload(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+    query: Result<Query<UploadQuery>, QueryRejection>,
+    headers: HeaderMap,
+    req: Request,
+) -> Result<Response, ApiError> {
+    auth.require(roles::UPLOAD)?;
+    let Path(serial) = path?;
+    validate_serial(&serial).map_err(ApiError::BadRequest)?;
+    let Query(query) = query?;
+    if st.stopping.load(Ordering::Relaxed) {
+        return Err(ApiError::Unavailable {
+            detail: "the server is shutting down".into(),
+            retry_after_s: 10,
+        });
+    }
+    // Checked before reading the body so a full queue costs the station
+    // nothing; checked again in the insert transaction.
+    if st.store.queue_depth().await? >= st.config.max_queue {
+        st.metrics.upload(UploadOutcome::Refused);
+        return Err(queue_full());
+    }
+    let _permit = st
+        .uploads
+        .clone()
+        .acquire_owned()
+        .await
+        .map_err(|_| ApiError::Internal("upload semaphore closed".into()))?;
+    let multipart = headers
+        .get(header::CONTENT_TYPE)
+        .and_then(|v| v.to_str().ok())
+        .is_some_and(|ct| ct.to_ascii_lowercase().starts_with("multipart/form-data"));
+    let limit = st.config.max_body_bytes;
+    let outcome = if multipart {
+        receive_multipart(&st, &serial, req).await
+    } else {
+        let text = match (headers.get(METADATA_HEADER), &query.metadata) {
+            (Some(h), _) => h.as_bytes().to_vec(),
+            (None, Some(q)) => q.as_bytes().to_vec(),
+            (None, None) => {
+                return Err(ApiError::BadRequest(format!(
+                    "no metadata: send multipart/form-data with `metadata` and `data` parts, or the \
+                     metadata JSON in the {METADATA_HEADER} header or the `metadata` query parameter"
+                )))
+            }
+        };
+        match parse_metadata(&text, &serial) {
+            Ok(meta) => {
+                let body = req
+                    .into_body()
+                    .into_data_stream()
+                    .map_err(|e| body_error(e, limit));
+                ingest(&st, body, Some(&meta)).await.map(|f| (meta, f))
+            }
+            Err(e) => Err(e),
+        }
+    };
+    let (meta, ingested) = match outcome {
+        Ok(ok) => ok,
+        Err(e) => {
+            st.metrics.upload(UploadOutcome::Refused);
+            return Err(e);
+        }
+    };
+    store_run(&st, &serial, meta, ingested).await
+}
+
+async fn receive_multipart(
+    st: &AppState,
+    serial: &str,
+    req: Request,
+) -> Result<(RunMetadata, Ingested), ApiError> {
+    let mut form = Multipart::from_request(req, st)
+        .await
+        .map_err(|e| ApiError::BadRequest(e.body_text()))?;
+    let mut meta: Option<RunMetadata> = None;
+    let mut data: Option<Ingested> = None;
+    while let Some(mut field) = form.next_field().await.map_err(multipart_error)? {
+        match field.name() {
+            Some("metadata") if meta.is_none() => {
+                let mut text = Vec::new();
+                while let Some(chunk) = field.chunk().await.map_err(multipart_error)? {
+                    text.extend_from_slice(&chunk);
+                    if text.len() > MAX_METADATA_BYTES {
+                        return Err(ApiError::PayloadTooLarge(format!(
+                            "the metadata part exceeds {MAX_METADATA_BYTES} bytes"
+                        )));
+                    }
+                }
+                meta = Some(parse_metadata(&text, serial)?);
+            }
+            Some("data") if data.is_none() => {
+                data = Some(ingest(st, field.map_err(multipart_error), meta.as_ref()).await?);
+            }
+            Some(name @ ("metadata" | "data")) => {
+                return Err(ApiError::BadRequest(format!(
+                    "the `{name}` part is given twice"
+                )))
+            }
+            other => {
+                return Err(ApiError::BadRequest(format!(
+                    "unexpected part {:?}: the form has a `metadata` part and a `data` part",
+                    other.unwrap_or("")
+                )))
+            }
+        }
+    }
+    let meta =
+        meta.ok_or_else(|| ApiError::BadRequest("the form has no `metadata` part".into()))?;
+    let mut data =
+        data.ok_or_else(|| ApiError::BadRequest("the form has no `data` part".into()))?;
+    if data.checked.is_none() {
+        // The data came before the metadata: it was spooled unchecked and
+        // is validated from the temp file now.
+        let (path, format, rate, limits) = (
+            data.temp.path.clone(),
+            meta.format,
+            meta.sample_rate_hz,
+            read_limits(st),
+        );
+        let checked = tokio::task::spawn_blocking(move || {
+            let file = std::fs::File::open(&path).map_err(SinkError::Io)?;
+            count_records(io::BufReader::new(file), format, rate, limits).map_err(SinkError::Data)
+        })
+        .await
+        .map_err(|e| ApiError::Internal(format!("validation task: {e}")))??;
+        data.checked = Some(checked);
+    }
+    Ok((meta, data))
+}
+
+async fn store_run(
+    st: &AppState,
+    serial: &str,
+    meta: RunMetadata,
+    mut data: Ingested,
+) -> Result<Response, ApiError> {
+    if let Some(existing) = st.store.find_run_by_hash(serial, &data.sha256).await? {
+        st.metrics.upload(UploadOutcome::Duplicate);
+        return Ok(existing_answer(&existing));
+    }
+    let (records, gzip) = data.checked.unwrap_or((0, false));
+    let run_id = uuid::Uuid::new_v4().to_string();
+    let job_id = uuid::Uuid::new_v4().to_string();
+    let ext = match (meta.format, gzip) {
+        (DataFormat::Csv, false) => "csv",
+        (DataFormat::Csv, true) => "csv.gz",
+        (DataFormat::F64le, _) => "bin",
+    };
+    let blob_path = format!("runs/{}/{run_id}.{ext}", &run_id[..2]);
+    let final_path = st.config.data_dir.join(&blob_path);
+    {
+        let (from, to) = (data.temp.path.clone(), final_path.clone());
+        tokio::task::spawn_blocking(move || -> io::Result<()> {
+            let dir = to.parent().expect("blob path has a parent");
+            std::fs::create_dir_all(dir)?;
+            std::fs::rename(&from, &to)?;
+            sync_dir(dir)?;
+            // The shard directory may be new: make its entry durable too.
+            sync_dir(dir.parent().expect("shard has a parent"))
+        })
+        .await
+        .map_err(|e| ApiError::Internal(format!("persist task: {e}")))??;
+        data.temp.path = final_path.clone();
+    }
+    let recorded_at = meta
+        .recorded_at
+        .as_deref()
+        .and_then(|t| chrono::DateTime::parse_from_rfc3339(t).ok())
+        .map(|t| t.timestamp_millis());
+    let new = NewRun {
+        run_id: run_id.clone(),
+        job_id: job_id.clone(),
+        unit_serial: serial.to_string(),
+        sha256: data.sha256.clone(),
+        size_bytes: data.size as i64,
+        records: records as i64,
+        format: meta.format.to_string(),
+        gzip,
+        blob_path,
+        metadata: serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?,
+        recorded_at,
+        uploaded_at: now_ms(),
+        max_attempts: st.config.max_attempts,
+    };
+    // Until the rows commit, `data.temp` still owns the blob and removes it
+    // on any early return; the startup sweep covers a crash here.
+    match st
+        .store
+        .insert_run_and_job(&new, st.config.max_queue)
+        .await?
+    {
+        InsertOutcome::Created => {
+            data.temp.keep = true;
+            st.wake.notify_one();
+            st.metrics.upload(UploadOutcome::Accepted);
+            tracing::info!(run = %run_id, job = %job_id, unit = serial, bytes = data.size, "run stored");
+            Ok(answer(StatusCode::ACCEPTED, &run_id, &job_id, &data.sha256))
+        }
+        InsertOutcome::Existing { run_id, job_id } => {
+            st.metrics.upload(UploadOutcome::Duplicate);
+            Ok(answer(StatusCode::OK, &run_id, &job_id, &data.sha256))
+        }
+        InsertOutcome::QueueFull => {
+            st.metrics.upload(UploadOutcome::Refused);
+            Err(queue_full())
+        }
+    }
+}

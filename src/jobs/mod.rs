@@ -1,0 +1,315 @@
+//! The durable calibration queue's workers: claim a job with a lease, run
+//! the estimator on a blocking thread, renew the lease while it works, and
+//! write the outcome only while the lease still holds (fencing, see
+//! [`crate::store::Fence`]).
+//!
+//! The queue itself lives in SQLite (`store`); this module never writes SQL
+//! and never runs the estimator on the async runtime.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use tokio::sync::Notify;
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+use crate::calib::{CalibError, EstimateOptions, Progress};
+use crate::io::meta::RunMetadata;
+use crate::pipeline::calibrate_file;
+use crate::server::metrics::{JobOutcome, Metrics};
+use crate::store::{Claim, Store, StoreError};
+
+/// Errors of the job layer (only the database can fail it: an estimator
+/// failure is an outcome of the job, not an error of the worker).
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    #[error(transparent)]
+    Store(#[from] StoreError),
+}
+
+/// How an attempt at a job ended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JobEnd {
+    Succeeded,
+    /// Failed; queued again for another attempt.
+    Retrying,
+    /// Failed for good.
+    Failed,
+    Cancelled,
+    /// Stopped at shutdown and returned to the queue, attempt not counted.
+    HandedBack,
+    /// The lease was reclaimed by another worker; nothing was written.
+    LeaseLost,
+}
+
+/// What one step of a worker did.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    Ran { job_id: String, end: JobEnd },
+    Empty,
+}
+
+/// Why the estimator's cancel flag was raised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum StopReason {
+    CancelRequested,
+    HandBack,
+    LeaseLost,
+}
+
+/// Settings of the workers.
+#[derive(Clone, Debug)]
+pub struct JobSettings {
+    pub data_dir: PathBuf,
+    pub lease: Duration,
+    pub estimate: EstimateOptions,
+    /// First retry delay; doubled per attempt, at most a minute.
+    pub retry_backoff: Duration,
+}
+
+/// Runs jobs. One per server; each worker task calls
+/// [`JobRunner::try_run_next_job`] in a loop, tests call it directly.
+pub struct JobRunner {
+    store: Store,
+    settings: JobSettings,
+    metrics: Arc<Metrics>,
+    /// Names this process in lease owners: `<instance>/<worker>`.
+    instance: String,
+    /// Fired when shutdown's grace period is over: running jobs stop and go
+    /// back to the queue.
+    hand_back: CancellationToken,
+}
+
+impl JobRunner {
+    pub fn new(store: Store, settings: JobSettings, metrics: Arc<Metrics>) -> Self {
+        JobRunner {
+            store,
+            settings,
+            metrics,
+            instance: uuid::Uuid::new_v4().simple().to_string(),
+            hand_back: CancellationToken::new(),
+        }
+    }
+
+    /// Stops running jobs and returns them to the queue.
+    pub fn hand_back_running_jobs(&self) {
+        self.hand_back.cancel();
+    }
+
+    /// How often a running job's lease is renewed and its progress written:
+    /// a third of the lease, so two heartbeats may be lost before it expires,
+    /// and at least once a second so that progress reads stay fresh.
+    fn heartbeat_every(&self) -> Duration {
+        (self.settings.lease / 3).clamp(Duration::from_millis(100), Duration::from_secs(1))
+    }
+
+    /// Claims the next job and runs it to its end, or reports that none is
+    /// claimable.
+    pub async fn try_run_next_job(&self, worker: usize) -> Result<Outcome, JobError> {
+        let owner = format!("{}/{worker}", self.instance);
+        let Some(claim) = self.store.claim_job(&owner, self.settings.lease).await? else {
+            return Ok(Outcome::Empty);
+        };
+        let job_id = claim.fence.job_id.clone();
+        tracing::info!(job = %job_id, run = %claim.run_id, attempt = claim.fence.attempt, "job claimed");
+        let started = Instant::now();
+        let end = self.run_claimed(&claim).await?;
+        let seconds = started.elapsed().as_secs_f64();
+        match end {
+            JobEnd::Succeeded => self.metrics.job_finished(JobOutcome::Succeeded, seconds),
+            JobEnd::Failed | JobEnd::Retrying => {
+                self.metrics.job_finished(JobOutcome::Failed, seconds)
+            }
+            JobEnd::Cancelled => self.metrics.job_finished(JobOutcome::Cancelled, seconds),
+            JobEnd::HandedBack | JobEnd::LeaseLost => {}
+        }
+        tracing::info!(job = %job_id, ?end, seconds, "job attempt ended");
+        Ok(Outcome::Ran { job_id, end })
+    }
+
+    async fn run_claimed(&self, claim: &Claim) -> Result<JobEnd, JobError> {
+        let fence = &claim.fence;
+        let meta = match RunMetadata::from_json(claim.metadata.as_bytes()) {
+            Ok(m) => m,
+            // Validated at upload; if it no longer parses, no retry helps.
+            Err(e) => {
+                return self
+                    .fail(claim, &format!("stored metadata: {e}"), false)
+                    .await
+            }
+        };
+        let path = self.settings.data_dir.join(&claim.blob_path);
+        let cancel = Arc::new(AtomicBool::new(false));
+        let progress = Arc::new(Mutex::new((0.0_f64, String::from("starting"))));
+        let estimate = self.settings.estimate.clone();
+        let task = {
+            let (cancel, progress) = (cancel.clone(), progress.clone());
+            tokio::task::spawn_blocking(move || {
+                // The callback only stores the latest value; the heartbeat
+                // writes it, so progress costs one row update a second
+                // however often the estimator reports.
+                let mut report = |p: Progress| {
+                    *progress.lock().expect("progress lock") =
+                        (p.fraction.clamp(0.0, 1.0), p.stage);
+                };
+                calibrate_file(&path, &meta, &estimate, &mut report, &cancel)
+            })
+        };
+        tokio::pin!(task);
+        let mut tick = tokio::time::interval(self.heartbeat_every());
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        tick.tick().await;
+        let mut reason: Option<StopReason> = None;
+        let joined = loop {
+            tokio::select! {
+                joined = &mut task => break joined,
+                _ = tick.tick() => {
+                    let (fraction, stage) = progress.lock().expect("progress lock").clone();
+                    match self.store.heartbeat(fence, self.settings.lease, fraction, &stage).await {
+                        Ok(Some(true)) if reason.is_none() => {
+                            reason = Some(StopReason::CancelRequested);
+                            cancel.store(true, Ordering::Relaxed);
+                        }
+                        Ok(Some(_)) => {}
+                        Ok(None) => {
+                            tracing::warn!(job = %fence.job_id, "lease lost; stopping without writing");
+                            reason = Some(StopReason::LeaseLost);
+                            cancel.store(true, Ordering::Relaxed);
+                        }
+                        // A missed heartbeat is not fatal: the lease has two
+                        // more periods to run before another worker may
+                        // take the job, and fencing covers that case.
+                        Err(e) => tracing::warn!(job = %fence.job_id, error = %e, "heartbeat failed"),
+                    }
+                }
+                _ = self.hand_back.cancelled(), if reason.is_none() => {
+                    reason = Some(StopReason::HandBack);
+                    cancel.store(true, Ordering::Relaxed);
+                }
+            }
+        };
+        if reason == Some(StopReason::LeaseLost) {
+            return Ok(JobEnd::LeaseLost);
+        }
+        match joined {
+            Ok(Ok(result)) => {
+                if self.store.complete_job(claim, &result).await? {
+                    Ok(JobEnd::Succeeded)
+                } else {
+                    Ok(JobEnd::LeaseLost)
+                }
+            }
+            Ok(Err(CalibError::Cancelled)) => {
+                let done = match reason {
+                    Some(StopReason::HandBack) => {
+                        if self.store.release_job(fence).await? {
+                            return Ok(JobEnd::HandedBack);
+                        }
+                        false
+                    }
+                    _ => self.store.finish_cancelled(fence).await?,
+                };
+                Ok(if done {
+                    JobEnd::Cancelled
+                } else {
+                    JobEnd::LeaseLost
+                })
+            }
+            // A source error is I/O on our own stored file (the data was
+            // validated at upload): possibly transient, so retried. A run
+            // the estimator finds unusable or numerically hopeless will be
+            // so again: failed at once.
+            Ok(Err(e @ CalibError::Source(_))) => self.fail(claim, &e.to_string(), true).await,
+            Ok(Err(e)) => self.fail(claim, &e.to_string(), false).await,
+            Err(join) => {
+                let what = if join.is_panic() {
+                    "the estimator panicked"
+                } else {
+                    "the estimator task was aborted"
+                };
+                self.fail(claim, what, true).await
+            }
+        }
+    }
+
+    async fn fail(&self, claim: &Claim, error: &str, retry: bool) -> Result<JobEnd, JobError> {
+        let exp = u32::try_from(claim.fence.attempt.clamp(1, 6) - 1).unwrap_or(0);
+        let backoff = (self.settings.retry_backoff * 2u32.pow(exp)).min(Duration::from_secs(60));
+        tracing::warn!(job = %claim.fence.job_id, attempt = claim.fence.attempt, error, "job attempt failed");
+        Ok(
+            match self
+                .store
+                .fail_job(&claim.fence, error, retry, backoff)
+                .await?
+            {
+                Some(state) if state == "queued" => JobEnd::Retrying,
+                Some(_) => JobEnd::Failed,
+                None => JobEnd::LeaseLost,
+            },
+        )
+    }
+}
+
+/// The running worker tasks.
+pub struct WorkerPool {
+    handles: Vec<JoinHandle<()>>,
+    stop: CancellationToken,
+    runner: Arc<JobRunner>,
+}
+
+impl WorkerPool {
+    /// Starts `n` workers. `wake` is notified on every upload; without it
+    /// a worker still polls every `poll` (to reclaim expired leases and
+    /// pick up retries whose backoff has passed).
+    pub fn start(
+        runner: Arc<JobRunner>,
+        n: usize,
+        wake: Arc<Notify>,
+        poll: Duration,
+    ) -> WorkerPool {
+        let stop = CancellationToken::new();
+        let handles = (0..n)
+            .map(|worker| {
+                let (runner, wake, stop) = (runner.clone(), wake.clone(), stop.clone());
+                tokio::spawn(async move {
+                    loop {
+                        if stop.is_cancelled() {
+                            break;
+                        }
+                        match runner.try_run_next_job(worker).await {
+                            Ok(Outcome::Ran { .. }) => continue,
+                            Ok(Outcome::Empty) => {}
+                            Err(e) => tracing::error!(worker, error = %e, "worker step failed"),
+                        }
+                        tokio::select! {
+                            _ = wake.notified() => {}
+                            _ = tokio::time::sleep(poll) => {}
+                            _ = stop.cancelled() => break,
+                        }
+                    }
+                })
+            })
+            .collect();
+        WorkerPool {
+            handles,
+            stop,
+            runner,
+        }
+    }
+
+    /// Stops taking work; running jobs get `grace` to finish, then are
+    /// handed back to the queue.
+    pub async fn shutdown(self, grace: Duration) {
+        self.stop.cancel();
+        let mut all = futures_util::future::join_all(self.handles);
+        if tokio::time::timeout(grace, &mut all).await.is_err() {
+            tracing::info!("grace period over: handing running jobs back to the queue");
+            self.runner.hand_back_running_jobs();
+            // The estimator checks its cancel flag between records; if it is
+            // stuck nonetheless the lease expiry returns the job instead.
+            let _ = tokio::time::timeout(Duration::from_secs(10), all).await;
+        }
+    }
+}

@@ -1,0 +1,991 @@
+//! The server's SQLite database: the pool, the migrations and every SQL
+//! statement of the project. Nothing outside this module writes SQL.
+//!
+//! Durability choices (see docs/ARCHITECTURE.md, "Server"):
+//! - WAL journal, set explicitly (sqlx does not choose it for us), so readers
+//!   never block the writer.
+//! - `synchronous = FULL`: in WAL mode a commit survives a process crash at
+//!   any level, but survives power loss only at FULL. A calibration run is
+//!   expensive to repeat and the server commits a few rows a second, so the
+//!   extra fsync per commit is cheap insurance.
+//! - Every write goes through one writer connection and every write
+//!   transaction starts with `BEGIN IMMEDIATE`: a deferred `BEGIN` that later
+//!   writes can fail with SQLITE_BUSY without waiting for the busy timeout.
+//!   Reads use a separate pool and never take the write lock.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::str::FromStr;
+use std::time::Duration;
+
+use sqlx::sqlite::{
+    SqliteConnectOptions, SqliteJournalMode, SqlitePool, SqlitePoolOptions, SqliteSynchronous,
+};
+use sqlx::{FromRow, Row};
+
+use crate::calib::{CalibrationResult, ParameterEstimate};
+
+/// The migrations in `migrations/`, embedded in the binary so that a fresh
+/// machine needs nothing but the executable.
+static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
+
+/// How long a statement waits for a lock held by another connection (the
+/// `sinscal token create` CLI, a second server) before SQLITE_BUSY.
+const BUSY_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// Errors of the storage layer.
+#[derive(Debug, thiserror::Error)]
+pub enum StoreError {
+    #[error("database error: {0}")]
+    Db(#[from] sqlx::Error),
+    #[error("database migration failed: {0}")]
+    Migrate(#[from] sqlx::migrate::MigrateError),
+    #[error("stored JSON is malformed: {0}")]
+    Json(#[from] serde_json::Error),
+}
+
+/// Milliseconds since the Unix epoch, the unit of every stored time.
+pub fn now_ms() -> i64 {
+    chrono::Utc::now().timestamp_millis()
+}
+
+/// The database: a single-connection writer pool and a reader pool.
+#[derive(Clone, Debug)]
+pub struct Store {
+    read: SqlitePool,
+    write: SqlitePool,
+}
+
+/// A bearer token's role.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Uploads runs and follows their jobs.
+    Station,
+    /// Reads everything, cancels jobs.
+    Engineer,
+    /// Everything, including tokens and deletes.
+    Admin,
+}
+
+impl Role {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Role::Station => "station",
+            Role::Engineer => "engineer",
+            Role::Admin => "admin",
+        }
+    }
+}
+
+impl FromStr for Role {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "station" => Ok(Role::Station),
+            "engineer" => Ok(Role::Engineer),
+            "admin" => Ok(Role::Admin),
+            other => Err(format!(
+                "unknown role {other:?}: station, engineer or admin"
+            )),
+        }
+    }
+}
+
+#[derive(Clone, Debug, FromRow, serde::Serialize)]
+pub struct TokenRow {
+    pub id: String,
+    pub role: String,
+    pub label: Option<String>,
+    pub created_at: i64,
+    pub revoked_at: Option<i64>,
+}
+
+/// A stored run, with its job's id.
+#[derive(Clone, Debug, FromRow)]
+pub struct RunRow {
+    pub id: String,
+    pub unit_serial: String,
+    pub sha256: String,
+    pub size_bytes: i64,
+    pub records: i64,
+    pub format: String,
+    pub gzip: bool,
+    pub blob_path: String,
+    pub metadata: String,
+    pub recorded_at: Option<i64>,
+    pub run_time: i64,
+    pub uploaded_at: i64,
+    pub job_id: String,
+}
+
+#[derive(Clone, Debug, FromRow)]
+pub struct JobRow {
+    pub id: String,
+    pub run_id: String,
+    pub state: String,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub lease_owner: Option<String>,
+    pub lease_expires_at: Option<i64>,
+    pub heartbeat_at: Option<i64>,
+    pub progress: f64,
+    pub stage: Option<String>,
+    pub cancel_requested: bool,
+    pub error: Option<String>,
+    pub created_at: i64,
+    pub started_at: Option<i64>,
+    pub finished_at: Option<i64>,
+}
+
+/// What an upload stores once its bytes are on disk.
+#[derive(Clone, Debug)]
+pub struct NewRun {
+    pub run_id: String,
+    pub job_id: String,
+    pub unit_serial: String,
+    pub sha256: String,
+    pub size_bytes: i64,
+    pub records: i64,
+    pub format: String,
+    pub gzip: bool,
+    pub blob_path: String,
+    pub metadata: String,
+    pub recorded_at: Option<i64>,
+    pub uploaded_at: i64,
+    pub max_attempts: i64,
+}
+
+/// What `insert_run_and_job` did.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InsertOutcome {
+    Created,
+    /// The same bytes were already stored for this unit: its run and job.
+    Existing {
+        run_id: String,
+        job_id: String,
+    },
+    /// The queue holds `max_queue` jobs already.
+    QueueFull,
+}
+
+/// The identity of one attempt at a job. Every write a worker makes about
+/// its job must match all three fields: a worker whose lease was reclaimed
+/// (and whose job was claimed again, so `attempt` moved on) cannot write
+/// over the new attempt.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Fence {
+    pub job_id: String,
+    pub attempt: i64,
+    pub owner: String,
+}
+
+/// A job a worker has just claimed.
+#[derive(Clone, Debug)]
+pub struct Claim {
+    pub fence: Fence,
+    pub run_id: String,
+    pub unit_serial: String,
+    pub run_time: i64,
+    pub blob_path: String,
+    pub metadata: String,
+    pub max_attempts: i64,
+}
+
+#[derive(Clone, Debug, FromRow)]
+pub struct UnitSummary {
+    pub serial: String,
+    pub created_at: i64,
+    pub runs: i64,
+    pub calibrated: i64,
+    pub last_run_time: Option<i64>,
+}
+
+#[derive(Clone, Debug, FromRow)]
+pub struct HistoryRow {
+    pub run_id: String,
+    pub job_id: String,
+    pub run_time: i64,
+    pub completed_at: i64,
+    pub parameters: String,
+}
+
+/// One parameter's spread over a unit's runs.
+#[derive(Clone, Debug)]
+pub struct ParamSpread {
+    pub name: String,
+    pub n: i64,
+    pub mean: f64,
+    /// Σ (v − mean)².
+    pub sum_sq: f64,
+    pub min: f64,
+    pub max: f64,
+    /// Largest |v_k − v_{k−1}| between consecutive runs in time order.
+    pub max_change: Option<f64>,
+}
+
+fn connect_options(db_path: &Path) -> SqliteConnectOptions {
+    SqliteConnectOptions::new()
+        .filename(db_path)
+        .create_if_missing(true)
+        .journal_mode(SqliteJournalMode::Wal)
+        .synchronous(SqliteSynchronous::Full)
+        .busy_timeout(BUSY_TIMEOUT)
+        .foreign_keys(true)
+}
+
+impl Store {
+    /// Opens (creating if needed) the database and applies the migrations.
+    pub async fn open(db_path: &Path, readers: u32) -> Result<Store, StoreError> {
+        let write = SqlitePoolOptions::new()
+            .max_connections(1)
+            // A writer waiting for the single connection must not give up
+            // while a long transaction (a result with its 24 rows) commits.
+            .acquire_timeout(Duration::from_secs(30))
+            .connect_with(connect_options(db_path))
+            .await?;
+        MIGRATOR.run(&write).await?;
+        let read = SqlitePoolOptions::new()
+            .max_connections(readers.max(1))
+            .acquire_timeout(Duration::from_secs(30))
+            .connect_with(connect_options(db_path).read_only(true))
+            .await?;
+        Ok(Store { read, write })
+    }
+
+    pub async fn close(&self) {
+        self.read.close().await;
+        self.write.close().await;
+    }
+
+    /// `SELECT 1` on both pools: the readiness probe.
+    pub async fn ping(&self) -> Result<(), StoreError> {
+        sqlx::query("SELECT 1").execute(&self.read).await?;
+        sqlx::query("SELECT 1").execute(&self.write).await?;
+        Ok(())
+    }
+
+    // ----- tokens -------------------------------------------------------
+
+    pub async fn count_tokens(&self) -> Result<i64, StoreError> {
+        Ok(sqlx::query_scalar("SELECT COUNT(*) FROM tokens")
+            .fetch_one(&self.write)
+            .await?)
+    }
+
+    pub async fn insert_token(
+        &self,
+        id: &str,
+        hash: &str,
+        role: Role,
+        label: Option<&str>,
+    ) -> Result<(), StoreError> {
+        sqlx::query(
+            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES (?, ?, ?, ?, ?)",
+        )
+        .bind(id)
+        .bind(hash)
+        .bind(role.as_str())
+        .bind(label)
+        .bind(now_ms())
+        .execute(&self.write)
+        .await?;
+        Ok(())
+    }
+
+    /// Inserts the first admin token unless any token exists, atomically, so
+    /// two processes starting together cannot both create one.
+    pub async fn insert_first_token(&self, id: &str, hash: &str) -> Result<bool, StoreError> {
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let n: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM tokens")
+            .fetch_one(&mut *tx)
+            .await?;
+        if n > 0 {
+            return Ok(false);
+        }
+        sqlx::query(
+            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES (?, ?, 'admin', 'first start', ?)",
+        )
+        .bind(id)
+        .bind(hash)
+        .bind(now_ms())
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(true)
+    }
+
+    /// The role of a live token by its hash.
+    pub async fn token_role(&self, hash: &str) -> Result<Option<(String, Role)>, StoreError> {
+        let row = sqlx::query("SELECT id, role FROM tokens WHERE hash = ? AND revoked_at IS NULL")
+            .bind(hash)
+            .fetch_optional(&self.read)
+            .await?;
+        Ok(row.and_then(|r| {
+            let role: String = r.get(1);
+            role.parse().ok().map(|role| (r.get(0), role))
+        }))
+    }
+
+    pub async fn list_tokens(&self) -> Result<Vec<TokenRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT id, role, label, created_at, revoked_at FROM tokens ORDER BY created_at, id",
+        )
+        .fetch_all(&self.read)
+        .await?)
+    }
+
+    /// Revokes a token; false if no live token has this id.
+    pub async fn revoke_token(&self, id: &str) -> Result<bool, StoreError> {
+        let r = sqlx::query("UPDATE tokens SET revoked_at = ? WHERE id = ? AND revoked_at IS NULL")
+            .bind(now_ms())
+            .bind(id)
+            .execute(&self.write)
+            .await?;
+        Ok(r.rows_affected() == 1)
+    }
+
+    // ----- runs and uploads --------------------------------------------
+
+    pub async fn find_run_by_hash(
+        &self,
+        unit_serial: &str,
+        sha256: &str,
+    ) -> Result<Option<RunRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT r.*, j.id AS job_id FROM runs r JOIN jobs j ON j.run_id = r.id
+             WHERE r.unit_serial = ? AND r.sha256 = ?",
+        )
+        .bind(unit_serial)
+        .bind(sha256)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    pub async fn queue_depth(&self) -> Result<i64, StoreError> {
+        Ok(
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
+                .fetch_one(&self.read)
+                .await?,
+        )
+    }
+
+    /// Writes a run and its job in one transaction, unless the same bytes
+    /// are already stored for the unit or the queue is full.
+    pub async fn insert_run_and_job(
+        &self,
+        new: &NewRun,
+        max_queue: i64,
+    ) -> Result<InsertOutcome, StoreError> {
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let existing = sqlx::query(
+            "SELECT r.id, j.id FROM runs r JOIN jobs j ON j.run_id = r.id
+             WHERE r.unit_serial = ? AND r.sha256 = ?",
+        )
+        .bind(&new.unit_serial)
+        .bind(&new.sha256)
+        .fetch_optional(&mut *tx)
+        .await?;
+        if let Some(row) = existing {
+            return Ok(InsertOutcome::Existing {
+                run_id: row.get(0),
+                job_id: row.get(1),
+            });
+        }
+        let depth: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
+            .fetch_one(&mut *tx)
+            .await?;
+        if depth >= max_queue {
+            return Ok(InsertOutcome::QueueFull);
+        }
+        sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
+            .bind(&new.unit_serial)
+            .bind(new.uploaded_at)
+            .execute(&mut *tx)
+            .await?;
+        sqlx::query(
+            "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
+                               metadata, recorded_at, run_time, uploaded_at)
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(&new.run_id)
+        .bind(&new.unit_serial)
+        .bind(&new.sha256)
+        .bind(new.size_bytes)
+        .bind(new.records)
+        .bind(&new.format)
+        .bind(new.gzip)
+        .bind(&new.blob_path)
+        .bind(&new.metadata)
+        .bind(new.recorded_at)
+        .bind(new.recorded_at.unwrap_or(new.uploaded_at))
+        .bind(new.uploaded_at)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query(
+            "INSERT INTO jobs (id, run_id, state, max_attempts, run_after, created_at)
+             VALUES (?, ?, 'queued', ?, ?, ?)",
+        )
+        .bind(&new.job_id)
+        .bind(&new.run_id)
+        .bind(new.max_attempts)
+        .bind(new.uploaded_at)
+        .bind(new.uploaded_at)
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(InsertOutcome::Created)
+    }
+
+    pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT r.*, j.id AS job_id FROM runs r JOIN jobs j ON j.run_id = r.id WHERE r.id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Every stored blob path: the startup sweep keeps these and removes
+    /// any other file under `runs/`.
+    pub async fn all_blob_paths(&self) -> Result<Vec<String>, StoreError> {
+        Ok(sqlx::query_scalar("SELECT blob_path FROM runs")
+            .fetch_all(&self.read)
+            .await?)
+    }
+
+    /// Deletes a run with its job and results. `Err(state)` when its job
+    /// is running; `Ok(None)` when there is no such run; else the blob path
+    /// to remove.
+    pub async fn delete_run(&self, id: &str) -> Result<Result<Option<String>, String>, StoreError> {
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let row = sqlx::query(
+            "SELECT r.blob_path, j.state FROM runs r JOIN jobs j ON j.run_id = r.id WHERE r.id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&mut *tx)
+        .await?;
+        let Some(row) = row else {
+            return Ok(Ok(None));
+        };
+        let (blob, state): (String, String) = (row.get(0), row.get(1));
+        if state == "running" {
+            return Ok(Err(state));
+        }
+        for sql in [
+            "DELETE FROM result_params WHERE run_id = ?",
+            "DELETE FROM results WHERE run_id = ?",
+            "DELETE FROM jobs WHERE run_id = ?",
+            "DELETE FROM runs WHERE id = ?",
+        ] {
+            sqlx::query(sql).bind(id).execute(&mut *tx).await?;
+        }
+        tx.commit().await?;
+        Ok(Ok(Some(blob)))
+    }
+
+    // ----- jobs ---------------------------------------------------------
+
+    pub async fn get_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+        Ok(sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&self.read)
+            .await?)
+    }
+
+    /// Jobs per state (every state present, zero included).
+    pub async fn job_counts(&self) -> Result<BTreeMap<String, i64>, StoreError> {
+        let mut counts: BTreeMap<String, i64> =
+            ["queued", "running", "succeeded", "failed", "cancelled"]
+                .iter()
+                .map(|s| (s.to_string(), 0))
+                .collect();
+        let rows = sqlx::query("SELECT state, COUNT(*) FROM jobs GROUP BY state")
+            .fetch_all(&self.read)
+            .await?;
+        for r in rows {
+            counts.insert(r.get(0), r.get(1));
+        }
+        Ok(counts)
+    }
+
+    /// Cancels a queued job at once, or asks a running one's worker to stop.
+    /// Returns the job afterwards, `None` if there is none.
+    pub async fn cancel_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+        let now = now_ms();
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        sqlx::query(
+            "UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1
+             WHERE id = ? AND state = 'queued'",
+        )
+        .bind(now)
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND state = 'running'")
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        let job = sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(job)
+    }
+
+    /// Claims the oldest claimable job for `owner`: a queued job whose
+    /// backoff has passed, or a running job whose lease expired (its worker
+    /// died). Expired jobs that were asked to cancel, or that used their
+    /// last attempt, are closed instead of claimed.
+    pub async fn claim_job(
+        &self,
+        owner: &str,
+        lease: Duration,
+    ) -> Result<Option<Claim>, StoreError> {
+        let now = now_ms();
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        sqlx::query(
+            "UPDATE jobs SET state = 'cancelled', finished_at = ?1, lease_owner = NULL, lease_expires_at = NULL
+             WHERE state = 'running' AND lease_expires_at < ?1 AND cancel_requested = 1",
+        )
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query(
+            "UPDATE jobs SET state = 'failed', finished_at = ?1, lease_owner = NULL, lease_expires_at = NULL,
+                    error = 'the worker was lost (lease expired) on the last allowed attempt'
+             WHERE state = 'running' AND lease_expires_at < ?1 AND attempts >= max_attempts",
+        )
+        .bind(now)
+        .execute(&mut *tx)
+        .await?;
+        let claimed = sqlx::query(
+            "UPDATE jobs SET state = 'running', attempts = attempts + 1, lease_owner = ?1,
+                    lease_expires_at = ?2, heartbeat_at = ?3, started_at = COALESCE(started_at, ?3),
+                    progress = 0, stage = 'claimed'
+             WHERE id = (SELECT id FROM jobs
+                         WHERE (state = 'queued' AND run_after <= ?3)
+                            OR (state = 'running' AND lease_expires_at < ?3)
+                         ORDER BY created_at, id LIMIT 1)
+             RETURNING id, run_id, attempts, max_attempts",
+        )
+        .bind(owner)
+        .bind(now + lease.as_millis() as i64)
+        .bind(now)
+        .fetch_optional(&mut *tx)
+        .await?;
+        let Some(c) = claimed else {
+            tx.commit().await?;
+            return Ok(None);
+        };
+        let run_id: String = c.get(1);
+        let run =
+            sqlx::query("SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = ?")
+                .bind(&run_id)
+                .fetch_one(&mut *tx)
+                .await?;
+        tx.commit().await?;
+        Ok(Some(Claim {
+            fence: Fence {
+                job_id: c.get(0),
+                attempt: c.get(2),
+                owner: owner.to_string(),
+            },
+            max_attempts: c.get(3),
+            run_id,
+            unit_serial: run.get(0),
+            run_time: run.get(1),
+            blob_path: run.get(2),
+            metadata: run.get(3),
+        }))
+    }
+
+    /// Renews the lease and records progress. `None`: the lease is lost
+    /// (reclaimed, or the job was deleted); else whether cancel was asked.
+    pub async fn heartbeat(
+        &self,
+        fence: &Fence,
+        lease: Duration,
+        progress: f64,
+        stage: &str,
+    ) -> Result<Option<bool>, StoreError> {
+        let now = now_ms();
+        let row = sqlx::query(
+            "UPDATE jobs SET lease_expires_at = ?, heartbeat_at = ?, progress = ?, stage = ?
+             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'
+             RETURNING cancel_requested",
+        )
+        .bind(now + lease.as_millis() as i64)
+        .bind(now)
+        .bind(progress)
+        .bind(stage)
+        .bind(&fence.job_id)
+        .bind(fence.attempt)
+        .bind(&fence.owner)
+        .fetch_optional(&self.write)
+        .await?;
+        Ok(row.map(|r| r.get::<bool, _>(0)))
+    }
+
+    /// Stores a result and marks the job succeeded, in one transaction, if
+    /// and only if `fence` still holds the lease. False: it did not, and
+    /// nothing was written.
+    pub async fn complete_job(
+        &self,
+        claim: &Claim,
+        result: &CalibrationResult,
+    ) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let fence = &claim.fence;
+        let result_json = serde_json::to_string(result)?;
+        let params_json = serde_json::to_string(&result.parameters)?;
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let updated = sqlx::query(
+            "UPDATE jobs SET state = 'succeeded', progress = 1, stage = 'done', finished_at = ?,
+                    lease_owner = NULL, lease_expires_at = NULL
+             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
+        )
+        .bind(now)
+        .bind(&fence.job_id)
+        .bind(fence.attempt)
+        .bind(&fence.owner)
+        .execute(&mut *tx)
+        .await?;
+        if updated.rows_affected() != 1 {
+            tx.rollback().await?;
+            return Ok(false);
+        }
+        sqlx::query(
+            "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters, result)
+             VALUES (?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(&claim.run_id)
+        .bind(&fence.job_id)
+        .bind(&claim.unit_serial)
+        .bind(claim.run_time)
+        .bind(now)
+        .bind(&params_json)
+        .bind(&result_json)
+        .execute(&mut *tx)
+        .await?;
+        for (name, p) in &result.parameters {
+            sqlx::query(
+                "INSERT INTO result_params (run_id, unit_serial, run_time, name, value, sigma, unit)
+                 VALUES (?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(&claim.run_id)
+            .bind(&claim.unit_serial)
+            .bind(claim.run_time)
+            .bind(name)
+            .bind(p.value)
+            .bind(p.sigma)
+            .bind(&p.unit)
+            .execute(&mut *tx)
+            .await?;
+        }
+        tx.commit().await?;
+        Ok(true)
+    }
+
+    /// Records a failed attempt: back to the queue after `backoff` while
+    /// attempts remain and `retry` holds, else failed for good. The error is
+    /// kept either way. Returns the new state, `None` if the lease was lost.
+    pub async fn fail_job(
+        &self,
+        fence: &Fence,
+        error: &str,
+        retry: bool,
+        backoff: Duration,
+    ) -> Result<Option<String>, StoreError> {
+        let now = now_ms();
+        let row = sqlx::query(
+            "UPDATE jobs SET
+                state = CASE WHEN ?1 AND attempts < max_attempts THEN 'queued' ELSE 'failed' END,
+                finished_at = CASE WHEN ?1 AND attempts < max_attempts THEN NULL ELSE ?2 END,
+                run_after = ?3, error = ?4, stage = 'failed attempt',
+                lease_owner = NULL, lease_expires_at = NULL
+             WHERE id = ?5 AND attempts = ?6 AND lease_owner = ?7 AND state = 'running'
+             RETURNING state",
+        )
+        .bind(retry)
+        .bind(now)
+        .bind(now + backoff.as_millis() as i64)
+        .bind(error)
+        .bind(&fence.job_id)
+        .bind(fence.attempt)
+        .bind(&fence.owner)
+        .fetch_optional(&self.write)
+        .await?;
+        Ok(row.map(|r| r.get(0)))
+    }
+
+    /// Marks a job cancelled after its worker stopped on request.
+    pub async fn finish_cancelled(&self, fence: &Fence) -> Result<bool, StoreError> {
+        let r = sqlx::query(
+            "UPDATE jobs SET state = 'cancelled', finished_at = ?, stage = 'cancelled',
+                    lease_owner = NULL, lease_expires_at = NULL
+             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
+        )
+        .bind(now_ms())
+        .bind(&fence.job_id)
+        .bind(fence.attempt)
+        .bind(&fence.owner)
+        .execute(&self.write)
+        .await?;
+        Ok(r.rows_affected() == 1)
+    }
+
+    /// Hands a job back to the queue at shutdown. The attempt is not
+    /// counted: the job did not fail, the server stopped.
+    pub async fn release_job(&self, fence: &Fence) -> Result<bool, StoreError> {
+        let r = sqlx::query(
+            "UPDATE jobs SET state = 'queued', attempts = attempts - 1, run_after = ?,
+                    stage = 'handed back at shutdown', progress = 0,
+                    lease_owner = NULL, lease_expires_at = NULL
+             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
+        )
+        .bind(now_ms())
+        .bind(&fence.job_id)
+        .bind(fence.attempt)
+        .bind(&fence.owner)
+        .execute(&self.write)
+        .await?;
+        Ok(r.rows_affected() == 1)
+    }
+
+    // ----- results, units, statistics ----------------------------------
+
+    pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
+        Ok(
+            sqlx::query_scalar("SELECT result FROM results WHERE run_id = ?")
+                .bind(run_id)
+                .fetch_optional(&self.read)
+                .await?,
+        )
+    }
+
+    pub async fn list_units(
+        &self,
+        limit: i64,
+        offset: i64,
+    ) -> Result<(i64, Vec<UnitSummary>), StoreError> {
+        let total = sqlx::query_scalar("SELECT COUNT(*) FROM units")
+            .fetch_one(&self.read)
+            .await?;
+        let rows = sqlx::query_as(
+            "SELECT u.serial, u.created_at,
+                    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
+                    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
+                    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time
+             FROM units u ORDER BY u.serial LIMIT ? OFFSET ?",
+        )
+        .bind(limit)
+        .bind(offset)
+        .fetch_all(&self.read)
+        .await?;
+        Ok((total, rows))
+    }
+
+    pub async fn get_unit(&self, serial: &str) -> Result<Option<UnitSummary>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT u.serial, u.created_at,
+                    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
+                    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
+                    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time
+             FROM units u WHERE u.serial = ?",
+        )
+        .bind(serial)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Jobs of a unit's runs per state.
+    pub async fn unit_job_counts(&self, serial: &str) -> Result<BTreeMap<String, i64>, StoreError> {
+        let rows = sqlx::query(
+            "SELECT j.state, COUNT(*) FROM jobs j JOIN runs r ON r.id = j.run_id
+             WHERE r.unit_serial = ? GROUP BY j.state",
+        )
+        .bind(serial)
+        .fetch_all(&self.read)
+        .await?;
+        Ok(rows.into_iter().map(|r| (r.get(0), r.get(1))).collect())
+    }
+
+    /// A unit's calibrated runs with `from <= run_time < to`, oldest first.
+    pub async fn history(
+        &self,
+        serial: &str,
+        from: i64,
+        to: i64,
+        limit: i64,
+        offset: i64,
+    ) -> Result<(i64, Vec<HistoryRow>), StoreError> {
+        let total = sqlx::query_scalar(
+            "SELECT COUNT(*) FROM results WHERE unit_serial = ? AND run_time >= ? AND run_time < ?",
+        )
+        .bind(serial)
+        .bind(from)
+        .bind(to)
+        .fetch_one(&self.read)
+        .await?;
+        let rows = sqlx::query_as(
+            "SELECT run_id, job_id, run_time, completed_at, parameters FROM results
+             WHERE unit_serial = ? AND run_time >= ? AND run_time < ?
+             ORDER BY run_time, run_id LIMIT ? OFFSET ?",
+        )
+        .bind(serial)
+        .bind(from)
+        .bind(to)
+        .bind(limit)
+        .bind(offset)
+        .fetch_all(&self.read)
+        .await?;
+        Ok((total, rows))
+    }
+
+    /// Per-parameter aggregates over a unit's calibrated runs with
+    /// `run_time >= since`, the `last` most recent of them (`None`: all).
+    ///
+    /// Both queries are range scans of the covering index
+    /// `result_params_cover`, already in (name, time) order.
+    pub async fn repeatability(
+        &self,
+        serial: &str,
+        since: i64,
+        last: Option<i64>,
+    ) -> Result<Vec<ParamSpread>, StoreError> {
+        // With `last`, the time of the N-th most recent run bounds the scan.
+        let mut from = since;
+        if let Some(n) = last {
+            let nth: Option<i64> = sqlx::query_scalar(
+                "SELECT run_time FROM results WHERE unit_serial = ? AND run_time >= ?
+                 ORDER BY run_time DESC LIMIT 1 OFFSET ?",
+            )
+            .bind(serial)
+            .bind(since)
+            .bind(n - 1)
+            .fetch_optional(&self.read)
+            .await?;
+            if let Some(t) = nth {
+                from = from.max(t);
+            }
+        }
+        // One scan of the covering index, in (name, time) order, aggregated
+        // in SQL so only 24 rows cross into Rust (sqlx's SQLite driver costs
+        // microseconds per row). Σ(v − mean)² is computed about the first
+        // value c as Σ(v − c)² − n (mean − c)², which keeps its precision
+        // for values like 500 ppm ± 0.2 where Σv² − n·mean² would not.
+        let rows = sqlx::query(
+            "SELECT name, COUNT(*), AVG(value), MIN(value), MAX(value),
+                    SUM((value - c) * (value - c)), AVG(value - c), MAX(ABS(d))
+             FROM (SELECT name, value,
+                          FIRST_VALUE(value) OVER w AS c,
+                          value - LAG(value) OVER w AS d
+                   FROM result_params
+                   WHERE unit_serial = ?1 AND run_time >= ?2
+                   WINDOW w AS (PARTITION BY name ORDER BY run_time))
+             GROUP BY name",
+        )
+        .bind(serial)
+        .bind(from)
+        .fetch_all(&self.read)
+        .await?;
+        Ok(rows
+            .into_iter()
+            .map(|r| {
+                let n: i64 = r.get(1);
+                let shifted_mean: f64 = r.get(6);
+                let sum_sq: f64 = r.get::<f64, _>(5) - n as f64 * shifted_mean * shifted_mean;
+                ParamSpread {
+                    name: r.get(0),
+                    n,
+                    mean: r.get(2),
+                    sum_sq: sum_sq.max(0.0),
+                    min: r.get(3),
+                    max: r.get(4),
+                    max_change: r.get(7),
+                }
+            })
+            .collect())
+    }
+
+    /// Stores a finished result for a run directly (benchmark seeding and
+    /// tests of the statistics): a run and a succeeded job in one
+    /// transaction.
+    pub async fn seed_calibrated_run(
+        &self,
+        new: &NewRun,
+        parameters: &BTreeMap<String, ParameterEstimate>,
+    ) -> Result<(), StoreError> {
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let run_time = new.recorded_at.unwrap_or(new.uploaded_at);
+        sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
+            .bind(&new.unit_serial)
+            .bind(new.uploaded_at)
+            .execute(&mut *tx)
+            .await?;
+        sqlx::query(
+            "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
+                               metadata, recorded_at, run_time, uploaded_at)
+             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(&new.run_id)
+        .bind(&new.unit_serial)
+        .bind(&new.sha256)
+        .bind(new.size_bytes)
+        .bind(new.records)
+        .bind(&new.format)
+        .bind(new.gzip)
+        .bind(&new.blob_path)
+        .bind(&new.metadata)
+        .bind(new.recorded_at)
+        .bind(run_time)
+        .bind(new.uploaded_at)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query(
+            "INSERT INTO jobs (id, run_id, state, attempts, max_attempts, run_after, progress, created_at, finished_at)
+             VALUES (?, ?, 'succeeded', 1, ?, ?, 1, ?, ?)",
+        )
+        .bind(&new.job_id)
+        .bind(&new.run_id)
+        .bind(new.max_attempts)
+        .bind(new.uploaded_at)
+        .bind(new.uploaded_at)
+        .bind(new.uploaded_at)
+        .execute(&mut *tx)
+        .await?;
+        let params_json = serde_json::to_string(parameters)?;
+        sqlx::query(
+            "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters, result)
+             VALUES (?, ?, ?, ?, ?, ?, ?)",
+        )
+        .bind(&new.run_id)
+        .bind(&new.job_id)
+        .bind(&new.unit_serial)
+        .bind(run_time)
+        .bind(new.uploaded_at)
+        .bind(&params_json)
+        .bind(format!("{{\"parameters\":{params_json}}}"))
+        .execute(&mut *tx)
+        .await?;
+        for (name, p) in parameters {
+            sqlx::query(
+                "INSERT INTO result_params (run_id, unit_serial, run_time, name, value, sigma, unit)
+                 VALUES (?, ?, ?, ?, ?, ?, ?)",
+            )
+            .bind(&new.run_id)
+            .bind(&new.unit_serial)
+            .bind(run_time)
+            .bind(name)
+            .bind(p.value)
+            .bind(p.sigma)
+            .bind(&p.unit)
+            .execute(&mut *tx)
+            .await?;
+        }
+        tx.commit().await?;
+        Ok(())
+    }
+}

@@ -1,0 +1,261 @@
+//! End to end through the real server: five runs of one unit whose truths
+//! differ slightly are calibrated; history and repeatability agree with the
+//! truths and with statistics computed here. Eight clients upload at once
+//! and every run is calibrated exactly once.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use rand::{Rng, SeedableRng};
+use reqwest::StatusCode;
+use serde_json::Value;
+use sinscal::io::data::DataFormat;
+use sinscal::model::{ErrorParameters, PARAMETERS};
+
+/// Estimates must be within this many of their own σ of the truth. The
+/// estimator's σ is honest (z-scores of a few units at most on these runs),
+/// so 5 leaves room without hiding a wrong result.
+const Z_MAX: f64 = 5.0;
+
+/// The paper's truth with every parameter moved by up to ±5 % (seeded):
+/// a unit that drifts a little between calibrations.
+fn drifted_truth(seed: u64) -> ErrorParameters {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + seed);
+    let mut p = ErrorParameters::paper();
+    for v in p.si.iter_mut() {
+        *v *= 1.0 + rng.gen_range(-0.05..0.05);
+    }
+    p
+}
+
+fn mean_std(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, var.sqrt())
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-9 * a.abs().max(b.abs()).max(1e-12)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn five_runs_give_history_and_repeatability_matching_the_truths() {
+    let app = spawn_app_with(2, |c| {
+        c.tolerances.insert("gyro_scale_x".into(), 1.0);
+        c.tolerances.insert("gyro_bias_x".into(), 1.0);
+    })
+    .await;
+    let serial = "RLG-0042";
+    let dir = tempfile::tempdir().unwrap();
+    let mut runs = Vec::new();
+    for k in 0..5u64 {
+        // 120 s dwells of the 9+9 scheme (~45 min): accurate and quick.
+        let cfg = sim_config(k + 1, drifted_truth(k), "ten-position-9+9", 120.0);
+        let (format, gzip) = match k % 3 {
+            0 => (DataFormat::F64le, false),
+            1 => (DataFormat::Csv, false),
+            _ => (DataFormat::Csv, true),
+        };
+        let recorded_at = format!("2026-0{}-15T08:00:00Z", k + 1);
+        let run = simulate_run(
+            &dir.path().join(k.to_string()),
+            &cfg,
+            format,
+            gzip,
+            serial,
+            Some(&recorded_at),
+        );
+        let r = app.upload_run(serial, &run).await;
+        assert_eq!(r.status(), StatusCode::ACCEPTED);
+        let body: Value = r.json().await.unwrap();
+        runs.push((body, run));
+    }
+    for (body, _) in &runs {
+        let job = app
+            .wait_job(body["job_id"].as_str().unwrap(), Duration::from_secs(120))
+            .await;
+        assert_eq!(job["state"], "succeeded", "{job}");
+        assert_eq!(job["attempts"], 1);
+        assert_eq!(job["progress_percent"], 100.0);
+    }
+
+    // History: every run, oldest first, each parameter within Z_MAX σ.
+    let history = app.history(serial, "").await;
+    assert_eq!(history["total"], 5);
+    let items = history["items"].as_array().unwrap();
+    assert_eq!(items.len(), 5);
+    let mut estimates = vec![Vec::new(); PARAMETERS.len()];
+    for (k, (item, (body, run))) in items.iter().zip(&runs).enumerate() {
+        assert_eq!(
+            item["run_id"], body["run_id"],
+            "history is in recorded_at order"
+        );
+        assert_eq!(
+            item["run_time"],
+            format!("2026-0{}-15T08:00:00.000Z", k + 1)
+        );
+        for (i, p) in PARAMETERS.iter().enumerate() {
+            let e = &item["parameters"][p.name];
+            let (value, sigma) = (e["value"].as_f64().unwrap(), e["sigma"].as_f64().unwrap());
+            let truth = run.truth.canonical(i);
+            assert!(
+                (value - truth).abs() < Z_MAX * sigma,
+                "run {k} {}: estimate {value} truth {truth} σ {sigma}",
+                p.name
+            );
+            estimates[i].push(value);
+        }
+        // The result endpoint has the same numbers and the convergence history.
+        let result = app.get_result(body["run_id"].as_str().unwrap()).await;
+        assert_eq!(result["parameters"], item["parameters"]);
+        assert!(!result["convergence"]["t"].as_array().unwrap().is_empty());
+    }
+    // Date filters and pagination.
+    let page = app
+        .history(
+            serial,
+            "?from=2026-02-01&to=2026-04-01T00:00:00Z&limit=1&offset=1",
+        )
+        .await;
+    assert_eq!(page["total"], 2);
+    assert_eq!(page["items"][0]["run_id"], runs[2].0["run_id"]);
+
+    // Repeatability: the server's statistics are those of the estimates,
+    // and they track the truths' within the estimates' σ.
+    let rep = app.repeatability(serial, "").await;
+    assert_eq!(rep["runs"], 5);
+    let params = rep["parameters"].as_array().unwrap();
+    assert_eq!(params.len(), 24);
+    for (i, p) in PARAMETERS.iter().enumerate() {
+        let s = &params[i];
+        assert_eq!(s["name"], p.name, "canonical order");
+        let (mean, std) = mean_std(&estimates[i]);
+        assert!(close(s["mean"].as_f64().unwrap(), mean), "{}: {s}", p.name);
+        assert!(
+            close(s["std_dev"].as_f64().unwrap(), std),
+            "{}: {s}",
+            p.name
+        );
+        let (min, max) = estimates[i]
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
+        assert!(close(s["min"].as_f64().unwrap(), min) && close(s["max"].as_f64().unwrap(), max));
+        assert!(close(s["range"].as_f64().unwrap(), max - min));
+        let change = estimates[i]
+            .windows(2)
+            .map(|w| (w[1] - w[0]).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            close(s["max_change"].as_f64().unwrap(), change),
+            "{}: {s} vs {change}",
+            p.name
+        );
+
+        let truths: Vec<f64> = runs.iter().map(|(_, r)| r.truth.canonical(i)).collect();
+        let (t_mean, t_std) = mean_std(&truths);
+        let sigma = items
+            .iter()
+            .map(|it| it["parameters"][p.name]["sigma"].as_f64().unwrap())
+            .fold(0.0, f64::max);
+        assert!(
+            (mean - t_mean).abs() < Z_MAX * sigma,
+            "{}: mean {mean} vs truths' {t_mean}",
+            p.name
+        );
+        assert!(
+            (std - t_std).abs() < Z_MAX * sigma,
+            "{}: std {std} vs truths' {t_std}",
+            p.name
+        );
+    }
+    // Tolerances (set below): 1 ppm on gyro_scale_x, whose truths spread
+    // by ±25 ppm, is exceeded; 1 deg/h on gyro_bias_x is not.
+    let flagged: Vec<&str> = rep["flagged"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert!(flagged.contains(&"gyro_scale_x"), "{flagged:?}");
+    assert!(!flagged.contains(&"gyro_bias_x"), "{flagged:?}");
+    assert_eq!(params[3]["tolerance"], 1.0);
+    let last3 = app.repeatability(serial, "?last=3").await;
+    assert_eq!(last3["runs"], 3);
+    let since = app.repeatability(serial, "?since=2026-04-01").await;
+    assert_eq!(since["runs"], 2);
+    app.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
+    let app = spawn_app(2).await;
+    let dir = tempfile::tempdir().unwrap();
+    let runs: Vec<SimRun> = (0..8u64)
+        .map(|k| {
+            let serial = format!("RLG-{:04}", 100 + k % 3);
+            short_run(
+                &dir.path().join(k.to_string()),
+                50 + k,
+                DataFormat::F64le,
+                &serial,
+            )
+        })
+        .collect();
+    let station = app.create_token("station").await;
+    let uploads = runs.iter().enumerate().map(|(k, run)| {
+        let (app, station) = (&app, &station);
+        async move {
+            let serial = format!("RLG-{:04}", 100 + k as u64 % 3);
+            let r = app
+                .upload_multipart(
+                    station,
+                    &serial,
+                    &run.metadata,
+                    std::fs::read(&run.data).unwrap(),
+                )
+                .await;
+            assert_eq!(r.status(), StatusCode::ACCEPTED);
+            r.json::<Value>().await.unwrap()
+        }
+    });
+    let answers = futures_util::future::join_all(uploads).await;
+    for a in &answers {
+        let job = app
+            .wait_job(a["job_id"].as_str().unwrap(), Duration::from_secs(120))
+            .await;
+        assert_eq!(job["state"], "succeeded", "{job}");
+        assert_eq!(job["attempts"], 1, "claimed once: {job}");
+    }
+    let units = app.units().await;
+    assert_eq!(units["total"], 3);
+    let total: i64 = units["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|u| u["calibrated"].as_i64().unwrap())
+        .sum();
+    assert_eq!(total, 8, "one result per run");
+    // The duration histogram is updated just after the job's row commits:
+    // give the last worker a moment.
+    let mut metrics = app.metrics().await;
+    for _ in 0..100 {
+        if metrics.contains("sinscal_job_duration_seconds_count{outcome=\"succeeded\"} 8") {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(20)).await;
+        metrics = app.metrics().await;
+    }
+    assert!(
+        metrics.contains("sinscal_jobs{state=\"succeeded\"} 8"),
+        "{metrics}"
+    );
+    assert!(
+        metrics.contains("sinscal_job_duration_seconds_count{outcome=\"succeeded\"} 8"),
+        "{metrics}"
+    );
+    assert!(metrics.contains("sinscal_queue_depth 0"));
+    app.stop().await;
+}

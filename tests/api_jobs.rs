@@ -1,0 +1,224 @@
+//! The queue's behaviour, driven step by step with `try_run_next_job`:
+//! cancelling a running job, retries that keep their error, fencing of a
+//! worker whose lease was reclaimed, hand-back at shutdown.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use reqwest::StatusCode;
+use serde_json::Value;
+use sinscal::io::data::DataFormat;
+use sinscal::jobs::{JobEnd, Outcome};
+use sinscal::model::ErrorParameters;
+
+async fn upload_long(app: &TestApp) -> (Value, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    // The full 3.2 h run: a few seconds of estimation, time to act on it.
+    let cfg = sim_config(3, ErrorParameters::paper(), "ten-position-9+9", 600.0);
+    let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0042", None);
+    let r = app.upload_run("RLG-0042", &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    (r.json().await.unwrap(), dir)
+}
+
+async fn wait_running(app: &TestApp, job_id: &str) {
+    for _ in 0..1000 {
+        if app.get_job(job_id).await["state"] == "running" {
+            return;
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    panic!("job {job_id} never ran");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_running_job_can_be_cancelled() {
+    let app = spawn_app(0).await;
+    let (run, _dir) = upload_long(&app).await;
+    let job_id = run["job_id"].as_str().unwrap().to_string();
+    let runner = app.runner.clone();
+    let step = tokio::spawn(async move { runner.try_run_next_job(0).await.unwrap() });
+    wait_running(&app, &job_id).await;
+    let r = app.cancel_job(&job_id).await;
+    assert_eq!(r.status(), StatusCode::OK);
+    assert_eq!(r.json::<Value>().await.unwrap()["cancel_requested"], true);
+    let outcome = step.await.unwrap();
+    assert_eq!(
+        outcome,
+        Outcome::Ran {
+            job_id: job_id.clone(),
+            end: JobEnd::Cancelled
+        }
+    );
+    let job = app.get_job(&job_id).await;
+    assert_eq!(job["state"], "cancelled");
+    assert!(job["finished_at"].is_string());
+    let r = app
+        .get(
+            &app.admin,
+            &format!("/runs/{}/result", run["run_id"].as_str().unwrap()),
+        )
+        .await;
+    assert_eq!(problem(r).await.0, StatusCode::CONFLICT);
+    app.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn failed_attempts_retry_up_to_the_limit_and_keep_their_error() {
+    let app = spawn_app(0).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 9, DataFormat::F64le, "RLG-0042");
+    let r: Value = app.upload_run("RLG-0042", &run).await.json().await.unwrap();
+    let job_id = r["job_id"].as_str().unwrap().to_string();
+    // The stored file disappears (a disk fault): every attempt fails to read it.
+    for f in app.stored_files() {
+        std::fs::remove_file(app.data_dir.path().join("runs").join(f)).unwrap();
+    }
+    let mut ends = Vec::new();
+    for _ in 0..3 {
+        match app.runner.try_run_next_job(0).await.unwrap() {
+            Outcome::Ran { end, .. } => ends.push(end),
+            Outcome::Empty => panic!("the job should be claimable again (zero backoff)"),
+        }
+    }
+    assert_eq!(ends, [JobEnd::Retrying, JobEnd::Retrying, JobEnd::Failed]);
+    let job = app.get_job(&job_id).await;
+    assert_eq!(job["state"], "failed");
+    assert_eq!(job["attempts"], 3);
+    assert!(
+        job["error"].as_str().unwrap().contains("cannot open"),
+        "{job}"
+    );
+    assert_eq!(
+        app.runner.try_run_next_job(0).await.unwrap(),
+        Outcome::Empty
+    );
+    app.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
+    let app = spawn_app(0).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 11, DataFormat::F64le, "RLG-0042");
+    let r: Value = app.upload_run("RLG-0042", &run).await.json().await.unwrap();
+    let job_id = r["job_id"].as_str().unwrap().to_string();
+
+    // Worker A claims with a lease that runs out at once (it stalled).
+    let a = app
+        .store
+        .claim_job("worker-a", Duration::from_millis(1))
+        .await
+        .unwrap()
+        .unwrap();
+    tokio::time::sleep(Duration::from_millis(20)).await;
+    // Worker B reclaims the expired job and finishes it.
+    match app.runner.try_run_next_job(1).await.unwrap() {
+        Outcome::Ran { end, .. } => assert_eq!(end, JobEnd::Succeeded),
+        Outcome::Empty => panic!("expired job not reclaimed"),
+    }
+    let winner = app.get_result(r["run_id"].as_str().unwrap()).await;
+    // A wakes up and tries to write: fenced out, on every path.
+    let fake = sinscal::calib::CalibrationResult {
+        estimator: "stale".into(),
+        ..Default::default()
+    };
+    assert!(!app.store.complete_job(&a, &fake).await.unwrap());
+    assert!(app
+        .store
+        .heartbeat(&a.fence, Duration::from_secs(30), 0.5, "x")
+        .await
+        .unwrap()
+        .is_none());
+    assert!(app
+        .store
+        .fail_job(&a.fence, "stale", true, Duration::ZERO)
+        .await
+        .unwrap()
+        .is_none());
+    assert!(!app.store.release_job(&a.fence).await.unwrap());
+    assert!(!app.store.finish_cancelled(&a.fence).await.unwrap());
+    let job = app.get_job(&job_id).await;
+    assert_eq!(job["state"], "succeeded");
+    assert_eq!(job["attempts"], 2);
+    assert_eq!(app.get_result(r["run_id"].as_str().unwrap()).await, winner);
+    app.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
+    let data = tempfile::tempdir().unwrap();
+    let mut config = test_config(data.path(), 1);
+    config.shutdown_grace = Duration::from_millis(0);
+    let app = sinscal::server::Application::build(config.clone())
+        .await
+        .unwrap();
+    let admin = app.first_admin_token().unwrap().to_string();
+    let base = format!("http://{}/api/v1", app.addr());
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(app.run_until_stopped(async {
+        let _ = stopped.await;
+    }));
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = sim_config(3, ErrorParameters::paper(), "ten-position-9+9", 600.0);
+    let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0042", None);
+    let http = reqwest::Client::new();
+    let form = reqwest::multipart::Form::new()
+        .part(
+            "metadata",
+            reqwest::multipart::Part::bytes(run.metadata.clone()),
+        )
+        .part(
+            "data",
+            reqwest::multipart::Part::bytes(std::fs::read(&run.data).unwrap()),
+        );
+    let r: Value = http
+        .post(format!("{base}/units/RLG-0042/runs"))
+        .bearer_auth(&admin)
+        .multipart(form)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap();
+    let job_url = format!("{base}/jobs/{}", r["job_id"].as_str().unwrap());
+    loop {
+        let job: Value = http
+            .get(&job_url)
+            .bearer_auth(&admin)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        if job["state"] == "running" {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(5)).await;
+    }
+    stop.send(()).unwrap();
+    server.await.unwrap().unwrap();
+
+    // Handed back: queued again, the interrupted attempt not counted.
+    let app = sinscal::server::Application::build(config).await.unwrap();
+    let store = app.store();
+    let job = store
+        .get_job(r["job_id"].as_str().unwrap())
+        .await
+        .unwrap()
+        .unwrap();
+    assert_eq!(job.state, "queued");
+    assert_eq!(job.attempts, 0);
+    assert_eq!(
+        app.runner().try_run_next_job(0).await.unwrap(),
+        Outcome::Ran {
+            job_id: job.id.clone(),
+            end: JobEnd::Succeeded
+        }
+    );
+    assert_eq!(store.get_job(&job.id).await.unwrap().unwrap().attempts, 1);
+}

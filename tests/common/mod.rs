@@ -1,0 +1,339 @@
+//! Test harness: a real server on a random port with a fresh data folder
+//! and SQLite file, a client with one method per endpoint, and simulated
+//! runs to upload.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use reqwest::{Response, StatusCode};
+use serde_json::Value;
+use sinscal::io::data::DataFormat;
+use sinscal::io::run::write_simulated_run;
+use sinscal::jobs::JobRunner;
+use sinscal::model::{Effects, ErrorParameters};
+use sinscal::nav::Site;
+use sinscal::server::{Application, Config};
+use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal::store::Store;
+
+pub struct TestApp {
+    pub base: String,
+    pub admin: String,
+    pub http: reqwest::Client,
+    pub data_dir: tempfile::TempDir,
+    pub runner: Arc<JobRunner>,
+    pub store: Store,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: Option<tokio::task::JoinHandle<()>>,
+}
+
+/// Test defaults: a short lease so reclaim tests are quick, no retry wait.
+pub fn test_config(data_dir: &Path, workers: usize) -> Config {
+    let mut c = Config::new(data_dir);
+    c.bind = "127.0.0.1:0".into();
+    c.workers = workers;
+    c.lease = Duration::from_secs(2);
+    c.retry_backoff = Duration::from_millis(0);
+    c.shutdown_grace = Duration::from_secs(5);
+    c
+}
+
+pub async fn spawn_app(workers: usize) -> TestApp {
+    spawn_app_with(workers, |_| {}).await
+}
+
+pub async fn spawn_app_with(workers: usize, tweak: impl FnOnce(&mut Config)) -> TestApp {
+    let data_dir = tempfile::tempdir().expect("temp dir");
+    let mut config = test_config(data_dir.path(), workers);
+    tweak(&mut config);
+    let app = Application::build(config).await.expect("build app");
+    let admin = app
+        .first_admin_token()
+        .expect("first start makes an admin token")
+        .to_string();
+    let base = format!("http://{}/api/v1", app.addr());
+    let runner = app.runner();
+    let store = app.store();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(async move {
+        app.run_until_stopped(async {
+            let _ = stopped.await;
+        })
+        .await
+        .expect("server ran");
+    });
+    TestApp {
+        base,
+        admin,
+        http: reqwest::Client::new(),
+        data_dir,
+        runner,
+        store,
+        stop: Some(stop),
+        task: Some(task),
+    }
+}
+
+/// A run's files on disk.
+#[derive(Clone, Debug)]
+pub struct SimRun {
+    pub data: PathBuf,
+    pub metadata: Vec<u8>,
+    pub truth: ErrorParameters,
+}
+
+pub fn sim_config(seed: u64, params: ErrorParameters, scheme: &str, dwell_s: f64) -> SimConfig {
+    SimConfig {
+        site: Site::new(28.2215, 112.9924, 50.0),
+        sample_rate_hz: 100.0,
+        scheme: Scheme::builtin(scheme, dwell_s).expect("built-in scheme"),
+        params,
+        effects: Effects::none(),
+        noise: Noise {
+            gyro_arw_deg_rt_h: 0.0003,
+            accel_vrw_ug_rt_hz: 5.0,
+        },
+        initial_attitude_error_deg: [0.1, -0.1, 2.0],
+        seed,
+    }
+}
+
+/// Simulates a run into `dir`; `recorded_at` goes into its metadata.
+pub fn simulate_run(
+    dir: &Path,
+    cfg: &SimConfig,
+    format: DataFormat,
+    gzip: bool,
+    serial: &str,
+    recorded_at: Option<&str>,
+) -> SimRun {
+    let files = write_simulated_run(cfg, dir, format, gzip, serial).expect("simulate");
+    let mut meta: Value = serde_json::from_slice(&std::fs::read(&files.metadata).unwrap()).unwrap();
+    if let Some(t) = recorded_at {
+        meta["recorded_at"] = Value::String(t.into());
+    }
+    SimRun {
+        data: files.data,
+        metadata: serde_json::to_vec(&meta).unwrap(),
+        truth: cfg.params,
+    }
+}
+
+/// A short run (ten-position, 30 s dwells, ~6 min at 100 Hz) for tests
+/// where accuracy is not the point.
+pub fn short_run(dir: &Path, seed: u64, format: DataFormat, serial: &str) -> SimRun {
+    let cfg = sim_config(seed, ErrorParameters::paper(), "ten-position", 30.0);
+    simulate_run(dir, &cfg, format, false, serial, None)
+}
+
+/// Metadata JSON for a unit, by hand.
+pub fn metadata(serial: &str, format: &str) -> Vec<u8> {
+    serde_json::to_vec(&serde_json::json!({
+        "unit_serial": serial, "sample_rate_hz": 100, "latitude_deg": 28.2215,
+        "longitude_deg": 112.9924, "height_m": 50, "format": format
+    }))
+    .unwrap()
+}
+
+impl TestApp {
+    pub fn url(&self, path: &str) -> String {
+        format!("{}{}", self.base, path)
+    }
+
+    pub async fn create_token(&self, role: &str) -> String {
+        let r = self
+            .http
+            .post(self.url("/tokens"))
+            .bearer_auth(&self.admin)
+            .json(&serde_json::json!({"role": role, "label": "test"}))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::CREATED);
+        r.json::<Value>().await.unwrap()["token"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    }
+
+    pub async fn upload_multipart(
+        &self,
+        token: &str,
+        serial: &str,
+        meta: &[u8],
+        data: Vec<u8>,
+    ) -> Response {
+        let form = reqwest::multipart::Form::new()
+            .part(
+                "metadata",
+                reqwest::multipart::Part::bytes(meta.to_vec())
+                    .mime_str("application/json")
+                    .unwrap(),
+            )
+            .part(
+                "data",
+                reqwest::multipart::Part::bytes(data).file_name("run.dat"),
+            );
+        self.http
+            .post(self.url(&format!("/units/{serial}/runs")))
+            .bearer_auth(token)
+            .multipart(form)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    /// Raw body, metadata in the `X-Sinscal-Metadata` header.
+    pub async fn upload_raw(
+        &self,
+        token: &str,
+        serial: &str,
+        meta: &[u8],
+        data: Vec<u8>,
+    ) -> Response {
+        self.http
+            .post(self.url(&format!("/units/{serial}/runs")))
+            .bearer_auth(token)
+            .header("x-sinscal-metadata", meta)
+            .header("content-type", "application/octet-stream")
+            .body(data)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    pub async fn upload_run(&self, serial: &str, run: &SimRun) -> Response {
+        self.upload_multipart(
+            &self.admin,
+            serial,
+            &run.metadata,
+            std::fs::read(&run.data).unwrap(),
+        )
+        .await
+    }
+
+    pub async fn get(&self, token: &str, path: &str) -> Response {
+        self.http
+            .get(self.url(path))
+            .bearer_auth(token)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    pub async fn get_json(&self, path: &str) -> Value {
+        let r = self.get(&self.admin, path).await;
+        assert_eq!(r.status(), StatusCode::OK, "GET {path}");
+        r.json().await.unwrap()
+    }
+
+    pub async fn get_run(&self, id: &str) -> Value {
+        self.get_json(&format!("/runs/{id}")).await
+    }
+
+    pub async fn get_result(&self, run_id: &str) -> Value {
+        self.get_json(&format!("/runs/{run_id}/result")).await
+    }
+
+    pub async fn get_job(&self, id: &str) -> Value {
+        self.get_json(&format!("/jobs/{id}")).await
+    }
+
+    pub async fn cancel_job(&self, id: &str) -> Response {
+        self.http
+            .post(self.url(&format!("/jobs/{id}/cancel")))
+            .bearer_auth(&self.admin)
+            .send()
+            .await
+            .unwrap()
+    }
+
+    pub async fn units(&self) -> Value {
+        self.get_json("/units").await
+    }
+
+    pub async fn unit(&self, serial: &str) -> Value {
+        self.get_json(&format!("/units/{serial}")).await
+    }
+
+    pub async fn history(&self, serial: &str, query: &str) -> Value {
+        self.get_json(&format!("/units/{serial}/history{query}"))
+            .await
+    }
+
+    pub async fn repeatability(&self, serial: &str, query: &str) -> Value {
+        self.get_json(&format!("/units/{serial}/repeatability{query}"))
+            .await
+    }
+
+    pub async fn metrics(&self) -> String {
+        self.get(&self.admin, "/metrics")
+            .await
+            .text()
+            .await
+            .unwrap()
+    }
+
+    /// Polls a job until it is in a final state.
+    pub async fn wait_job(&self, id: &str, timeout: Duration) -> Value {
+        let start = Instant::now();
+        loop {
+            let job = self.get_job(id).await;
+            let state = job["state"].as_str().unwrap();
+            if matches!(state, "succeeded" | "failed" | "cancelled") {
+                return job;
+            }
+            assert!(
+                start.elapsed() < timeout,
+                "job {id} still {state} after {timeout:?}"
+            );
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+    }
+
+    /// Files under runs/ (tmp included), relative paths.
+    pub fn stored_files(&self) -> Vec<PathBuf> {
+        let mut out = Vec::new();
+        let runs = self.data_dir.path().join("runs");
+        for shard in std::fs::read_dir(&runs).unwrap() {
+            let shard = shard.unwrap().path();
+            if shard.is_dir() {
+                for f in std::fs::read_dir(&shard).unwrap() {
+                    out.push(f.unwrap().path().strip_prefix(&runs).unwrap().to_path_buf());
+                }
+            }
+        }
+        out
+    }
+
+    pub async fn stop(mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.task.take() {
+            t.await.unwrap();
+        }
+    }
+}
+
+/// The status and problem+json body of a refusal.
+pub async fn problem(r: Response) -> (StatusCode, Value) {
+    let status = r.status();
+    let ct = r
+        .headers()
+        .get("content-type")
+        .map(|v| v.to_str().unwrap().to_string());
+    assert_eq!(
+        ct.as_deref(),
+        Some("application/problem+json"),
+        "status {status}"
+    );
+    (status, r.json().await.unwrap())
+}
+
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::{Digest, Sha256};
+    hex::encode(Sha256::digest(bytes))
+}
