@@ -15,6 +15,8 @@ use crate::store::JobRow;
 pub struct JobView {
     pub id: String,
     pub run_id: String,
+    /// calibrate or diagnose.
+    pub kind: String,
     /// queued, running, succeeded, failed or cancelled.
     pub state: String,
     /// 0 … 100.
@@ -37,6 +39,7 @@ impl From<JobRow> for JobView {
         JobView {
             id: j.id,
             run_id: j.run_id,
+            kind: j.kind,
             state: j.state,
             progress_percent: (j.progress * 1000.0).round() / 10.0,
             stage: j.stage,

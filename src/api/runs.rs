@@ -1,17 +1,23 @@
-//! Runs: read one, its result, delete one. (Uploads are in `upload`.)
+//! Runs: read one, its result, delete one; queue its diagnosis and read
+//! the latest report. (Uploads are in `upload`.)
 
 use axum::extract::rejection::PathRejection;
 use axum::extract::{Path, State};
-use axum::http::{header, StatusCode};
+use std::sync::atomic::Ordering;
+
+use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
-use axum::routing::get;
+use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Serialize;
 
 use super::auth::{roles, Auth};
 use super::error::ApiError;
+use super::jobs::JobView;
+use super::upload::queue_full;
 use super::{parse_id, rfc3339, AppState};
-use crate::store::RunRow;
+use crate::diagnose::DiagnoseReport;
+use crate::store::{DiagnoseQueued, JobRow, RunRow};
 
 #[derive(Serialize)]
 pub struct RunView {
@@ -53,6 +59,9 @@ pub fn router() -> Router<AppState> {
     Router::new()
         .route("/runs/{id}", get(get_run).delete(delete_run))
         .route("/runs/{id}/result", get(get_result))
+        .route("/runs/{id}/diagnose", post(diagnose_run))
+        .route("/runs/{id}/diagnosis", get(get_diagnosis))
+        .route("/runs/{id}/diagnosis/gap.svg", get(get_diagnosis_gap_svg))
 }
 
 async fn get_run(
@@ -117,4 +126,93 @@ async fn delete_run(
             "run {id}'s job is {state}: cancel it and wait for it to stop first"
         ))),
     }
+}
+
+/// A job answer: the job, with its URL in `Location`.
+fn job_answer(status: StatusCode, job: JobRow) -> Response {
+    let url = format!("/api/v1/jobs/{}", job.id);
+    let mut resp = (status, Json(JobView::from(job))).into_response();
+    if let Ok(v) = HeaderValue::from_str(&url) {
+        resp.headers_mut().insert(header::LOCATION, v);
+    }
+    resp
+}
+
+/// Queues the discrepancy workflow for a run (202), or returns the diagnose
+/// job already queued or running for it (200) so that repeated requests do
+/// not stack up copies of a minutes-long job.
+async fn diagnose_run(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+) -> Result<Response, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let id = parse_id(path?.0, "run")?;
+    if st.stopping.load(Ordering::Relaxed) {
+        return Err(ApiError::Unavailable {
+            detail: "the server is shutting down".into(),
+            retry_after_s: 10,
+        });
+    }
+    let job_id = uuid::Uuid::new_v4().hyphenated().to_string();
+    match st
+        .store
+        .queue_diagnose_job(&id, &job_id, st.config.max_attempts, st.config.max_queue)
+        .await?
+    {
+        DiagnoseQueued::Created(job) => {
+            st.wake.notify_one();
+            tracing::info!(run = %id, job = %job.id, "diagnosis queued");
+            Ok(job_answer(StatusCode::ACCEPTED, job))
+        }
+        DiagnoseQueued::Existing(job) => Ok(job_answer(StatusCode::OK, job)),
+        DiagnoseQueued::NoRun => Err(ApiError::NotFound(format!("no run {id}"))),
+        DiagnoseQueued::QueueFull => Err(queue_full()),
+    }
+}
+
+/// The latest successful diagnosis report of a run, as stored. 409 while
+/// its diagnose job has not succeeded, 404 if none was ever asked for.
+async fn latest_report(st: &AppState, id: &str) -> Result<String, ApiError> {
+    if let Some(json) = st.store.latest_diagnosis(id).await? {
+        return Ok(json);
+    }
+    if st.store.get_run(id).await?.is_none() {
+        return Err(ApiError::NotFound(format!("no run {id}")));
+    }
+    match st.store.latest_diagnose_job(id).await? {
+        Some(job) => Err(ApiError::Conflict(format!(
+            "run {id} has no diagnosis yet: its diagnose job {} is {}",
+            job.id, job.state
+        ))),
+        None => Err(ApiError::NotFound(format!(
+            "run {id} has no diagnosis: POST /api/v1/runs/{id}/diagnose to queue one"
+        ))),
+    }
+}
+
+async fn get_diagnosis(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+) -> Result<Response, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let id = parse_id(path?.0, "run")?;
+    let json = latest_report(&st, &id).await?;
+    // Stored as serialized by the workflow's own types: served as is.
+    Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response())
+}
+
+async fn get_diagnosis_gap_svg(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+) -> Result<Response, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let id = parse_id(path?.0, "run")?;
+    let json = latest_report(&st, &id).await?;
+    let report: DiagnoseReport = serde_json::from_str(&json)
+        .map_err(|e| ApiError::Internal(format!("stored diagnosis: {e}")))?;
+    let svg = crate::diagnose::plot::gap_svg(&report);
+    Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())
 }

@@ -1,5 +1,6 @@
-//! The durable calibration queue's workers: claim a job with a lease, run
-//! the estimator on a blocking thread, renew the lease while it works, and
+//! The durable job queue's workers: claim a job with a lease, run the
+//! estimator (a `calibrate` job) or the discrepancy workflow (a `diagnose`
+//! job) on a blocking thread, renew the lease while it works, and
 //! write the outcome only while the lease still holds (fencing, see
 //! [`crate::store::Fence`]).
 //!
@@ -15,9 +16,10 @@ use tokio::sync::Notify;
 use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
-use crate::calib::{CalibError, EstimateOptions, Progress};
+use crate::calib::{CalibError, CalibrationResult, EstimateOptions, Progress};
+use crate::diagnose::{DiagnoseError, DiagnoseOptions};
 use crate::io::meta::RunMetadata;
-use crate::pipeline::calibrate_file;
+use crate::pipeline::{calibrate_file, diagnose_file};
 use crate::server::metrics::{JobOutcome, Metrics};
 use crate::store::{Claim, Store, StoreError};
 
@@ -49,6 +51,53 @@ pub enum JobEnd {
 pub enum Outcome {
     Ran { job_id: String, end: JobEnd },
     Empty,
+}
+
+/// What a job's blocking work produced.
+enum Done {
+    Calibration(Box<CalibrationResult>),
+    /// The `DiagnoseReport` as JSON, serialized on the blocking thread
+    /// (it carries the gap series, so it is not small).
+    Diagnosis(serde_json::Value),
+}
+
+/// Why a job's blocking work stopped without a product.
+enum Failure {
+    /// The cancel flag was seen.
+    Cancelled,
+    /// Possibly transient (I/O on our own stored file): worth another attempt.
+    Transient(String),
+    /// Will fail the same way again: failed at once.
+    Permanent(String),
+}
+
+impl From<CalibError> for Failure {
+    fn from(e: CalibError) -> Self {
+        match e {
+            CalibError::Cancelled => Failure::Cancelled,
+            // A source error is I/O on our own stored file (the data was
+            // validated at upload): possibly transient, so retried. A run
+            // the estimator finds unusable or numerically hopeless will be
+            // so again.
+            e @ CalibError::Source(_) => Failure::Transient(e.to_string()),
+            e => Failure::Permanent(e.to_string()),
+        }
+    }
+}
+
+impl From<DiagnoseError> for Failure {
+    fn from(e: DiagnoseError) -> Self {
+        match e {
+            // The workflow runs the estimator: its errors mean what they
+            // mean for a calibration job.
+            DiagnoseError::Calib(c) => c.into(),
+            // A scheme that cannot be reconstructed, or a gap fit that
+            // breaks down, is a property of the run's data.
+            e @ (DiagnoseError::Scheme(_) | DiagnoseError::Numerical(_)) => {
+                Failure::Permanent(e.to_string())
+            }
+        }
+    }
 }
 
 /// Why the estimator's cancel flag was raised.
@@ -143,10 +192,21 @@ impl JobRunner {
         let path = self.settings.data_dir.join(&claim.blob_path);
         let cancel = Arc::new(AtomicBool::new(false));
         let progress = Arc::new(Mutex::new((0.0_f64, String::from("starting"))));
+        let diagnose = match claim.kind.as_str() {
+            "calibrate" => false,
+            "diagnose" => true,
+            // The schema's CHECK allows no other kind; a newer server's
+            // kind is not ours to run, and retrying here will not help.
+            other => {
+                return self
+                    .fail(claim, &format!("unknown job kind {other:?}"), false)
+                    .await
+            }
+        };
         let estimate = self.settings.estimate.clone();
         let task = {
             let (cancel, progress) = (cancel.clone(), progress.clone());
-            tokio::task::spawn_blocking(move || {
+            tokio::task::spawn_blocking(move || -> Result<Done, Failure> {
                 // The callback only stores the latest value; the heartbeat
                 // writes it, so progress costs one row update a second
                 // however often the estimator reports.
@@ -154,7 +214,21 @@ impl JobRunner {
                     *progress.lock().expect("progress lock") =
                         (p.fraction.clamp(0.0, 1.0), p.stage);
                 };
-                calibrate_file(&path, &meta, &estimate, &mut report, &cancel)
+                if diagnose {
+                    let rep = diagnose_file(
+                        &path,
+                        &meta,
+                        &DiagnoseOptions::default(),
+                        &mut report,
+                        &cancel,
+                    )?;
+                    serde_json::to_value(&rep)
+                        .map(Done::Diagnosis)
+                        .map_err(|e| Failure::Permanent(format!("report to JSON: {e}")))
+                } else {
+                    let result = calibrate_file(&path, &meta, &estimate, &mut report, &cancel)?;
+                    Ok(Done::Calibration(Box::new(result)))
+                }
             })
         };
         tokio::pin!(task);
@@ -194,14 +268,20 @@ impl JobRunner {
             return Ok(JobEnd::LeaseLost);
         }
         match joined {
-            Ok(Ok(result)) => {
-                if self.store.complete_job(claim, &result).await? {
-                    Ok(JobEnd::Succeeded)
+            Ok(Ok(done)) => {
+                let written = match done {
+                    Done::Calibration(result) => self.store.complete_job(claim, &result).await?,
+                    Done::Diagnosis(report) => {
+                        self.store.complete_diagnose_job(claim, &report).await?
+                    }
+                };
+                Ok(if written {
+                    JobEnd::Succeeded
                 } else {
-                    Ok(JobEnd::LeaseLost)
-                }
+                    JobEnd::LeaseLost
+                })
             }
-            Ok(Err(CalibError::Cancelled)) => {
+            Ok(Err(Failure::Cancelled)) => {
                 let done = match reason {
                     Some(StopReason::HandBack) => {
                         if self.store.release_job(fence).await? {
@@ -217,12 +297,8 @@ impl JobRunner {
                     JobEnd::LeaseLost
                 })
             }
-            // A source error is I/O on our own stored file (the data was
-            // validated at upload): possibly transient, so retried. A run
-            // the estimator finds unusable or numerically hopeless will be
-            // so again: failed at once.
-            Ok(Err(e @ CalibError::Source(_))) => self.fail(claim, &e.to_string(), true).await,
-            Ok(Err(e)) => self.fail(claim, &e.to_string(), false).await,
+            Ok(Err(Failure::Transient(e))) => self.fail(claim, &e, true).await,
+            Ok(Err(Failure::Permanent(e))) => self.fail(claim, &e, false).await,
             Err(join) => {
                 let what = if join.is_panic() {
                     "the estimator panicked"

@@ -123,6 +123,8 @@ pub struct RunRow {
 pub struct JobRow {
     pub id: String,
     pub run_id: String,
+    /// `calibrate` or `diagnose`.
+    pub kind: String,
     pub state: String,
     pub attempts: i64,
     pub max_attempts: i64,
@@ -169,6 +171,18 @@ pub enum InsertOutcome {
     QueueFull,
 }
 
+/// What `queue_diagnose_job` did.
+#[derive(Clone, Debug)]
+pub enum DiagnoseQueued {
+    /// A new diagnose job, queued.
+    Created(JobRow),
+    /// A diagnose job for this run was already queued or running: it.
+    Existing(JobRow),
+    NoRun,
+    /// The queue holds `max_queue` jobs already.
+    QueueFull,
+}
+
 /// The identity of one attempt at a job. Every write a worker makes about
 /// its job must match all three fields: a worker whose lease was reclaimed
 /// (and whose job was claimed again, so `attempt` moved on) cannot write
@@ -184,6 +198,8 @@ pub struct Fence {
 #[derive(Clone, Debug)]
 pub struct Claim {
     pub fence: Fence,
+    /// `calibrate` or `diagnose`: what the worker runs.
+    pub kind: String,
     pub run_id: String,
     pub unit_serial: String,
     pub run_time: i64,
@@ -353,7 +369,8 @@ impl Store {
         sha256: &str,
     ) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT r.*, j.id AS job_id FROM runs r JOIN jobs j ON j.run_id = r.id
+            "SELECT r.*, j.id AS job_id FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              WHERE r.unit_serial = ? AND r.sha256 = ?",
         )
         .bind(unit_serial)
@@ -379,7 +396,8 @@ impl Store {
     ) -> Result<InsertOutcome, StoreError> {
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
         let existing = sqlx::query(
-            "SELECT r.id, j.id FROM runs r JOIN jobs j ON j.run_id = r.id
+            "SELECT r.id, j.id FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              WHERE r.unit_serial = ? AND r.sha256 = ?",
         )
         .bind(&new.unit_serial)
@@ -439,7 +457,8 @@ impl Store {
 
     pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT r.*, j.id AS job_id FROM runs r JOIN jobs j ON j.run_id = r.id WHERE r.id = ?",
+            "SELECT r.*, j.id AS job_id FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate' WHERE r.id = ?",
         )
         .bind(id)
         .fetch_optional(&self.read)
@@ -459,22 +478,27 @@ impl Store {
     /// to remove.
     pub async fn delete_run(&self, id: &str) -> Result<Result<Option<String>, String>, StoreError> {
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
-        let row = sqlx::query(
-            "SELECT r.blob_path, j.state FROM runs r JOIN jobs j ON j.run_id = r.id WHERE r.id = ?",
-        )
-        .bind(id)
-        .fetch_optional(&mut *tx)
-        .await?;
-        let Some(row) = row else {
+        let blob: Option<String> = sqlx::query_scalar("SELECT blob_path FROM runs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        let Some(blob) = blob else {
             return Ok(Ok(None));
         };
-        let (blob, state): (String, String) = (row.get(0), row.get(1));
-        if state == "running" {
-            return Ok(Err(state));
+        // Any of the run's jobs (calibration or diagnosis) still working
+        // holds its file open and would write rows after the delete.
+        let running: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE run_id = ? AND state = 'running'")
+                .bind(id)
+                .fetch_one(&mut *tx)
+                .await?;
+        if running > 0 {
+            return Ok(Err("running".into()));
         }
         for sql in [
             "DELETE FROM result_params WHERE run_id = ?",
             "DELETE FROM results WHERE run_id = ?",
+            "DELETE FROM diagnoses WHERE run_id = ?",
             "DELETE FROM jobs WHERE run_id = ?",
             "DELETE FROM runs WHERE id = ?",
         ] {
@@ -568,7 +592,7 @@ impl Store {
                          WHERE (state = 'queued' AND run_after <= ?3)
                             OR (state = 'running' AND lease_expires_at < ?3)
                          ORDER BY created_at, id LIMIT 1)
-             RETURNING id, run_id, attempts, max_attempts",
+             RETURNING id, run_id, attempts, max_attempts, kind",
         )
         .bind(owner)
         .bind(now + lease.as_millis() as i64)
@@ -593,6 +617,7 @@ impl Store {
                 owner: owner.to_string(),
             },
             max_attempts: c.get(3),
+            kind: c.get(4),
             run_id,
             unit_serial: run.get(0),
             run_time: run.get(1),
@@ -626,6 +651,97 @@ impl Store {
         .fetch_optional(&self.write)
         .await?;
         Ok(row.map(|r| r.get::<bool, _>(0)))
+    }
+
+    /// Queues a diagnose job for a run, unless the run does not exist, a
+    /// diagnose job for it is already queued or running (returned instead),
+    /// or the queue is full.
+    pub async fn queue_diagnose_job(
+        &self,
+        run_id: &str,
+        job_id: &str,
+        max_attempts: i64,
+        max_queue: i64,
+    ) -> Result<DiagnoseQueued, StoreError> {
+        let now = now_ms();
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let exists: Option<i64> = sqlx::query_scalar("SELECT 1 FROM runs WHERE id = ?")
+            .bind(run_id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        if exists.is_none() {
+            return Ok(DiagnoseQueued::NoRun);
+        }
+        let active: Option<JobRow> = sqlx::query_as(
+            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+                AND state IN ('queued', 'running')",
+        )
+        .bind(run_id)
+        .fetch_optional(&mut *tx)
+        .await?;
+        if let Some(job) = active {
+            return Ok(DiagnoseQueued::Existing(job));
+        }
+        let depth: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
+            .fetch_one(&mut *tx)
+            .await?;
+        if depth >= max_queue {
+            return Ok(DiagnoseQueued::QueueFull);
+        }
+        let job = sqlx::query_as(
+            "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
+             VALUES (?, ?, 'diagnose', 'queued', ?, ?, ?)
+             RETURNING *",
+        )
+        .bind(job_id)
+        .bind(run_id)
+        .bind(max_attempts)
+        .bind(now)
+        .bind(now)
+        .fetch_one(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(DiagnoseQueued::Created(job))
+    }
+
+    /// Stores a diagnose job's report and marks it succeeded, in one
+    /// transaction, if and only if `fence` still holds the lease (as
+    /// [`Store::complete_job`]). Writes no calibration result rows.
+    pub async fn complete_diagnose_job(
+        &self,
+        claim: &Claim,
+        report: &serde_json::Value,
+    ) -> Result<bool, StoreError> {
+        let now = now_ms();
+        let fence = &claim.fence;
+        let report_json = serde_json::to_string(report)?;
+        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let updated = sqlx::query(
+            "UPDATE jobs SET state = 'succeeded', progress = 1, stage = 'done', finished_at = ?,
+                    lease_owner = NULL, lease_expires_at = NULL
+             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
+        )
+        .bind(now)
+        .bind(&fence.job_id)
+        .bind(fence.attempt)
+        .bind(&fence.owner)
+        .execute(&mut *tx)
+        .await?;
+        if updated.rows_affected() != 1 {
+            tx.rollback().await?;
+            return Ok(false);
+        }
+        sqlx::query(
+            "INSERT INTO diagnoses (job_id, run_id, completed_at, report) VALUES (?, ?, ?, ?)",
+        )
+        .bind(&fence.job_id)
+        .bind(&claim.run_id)
+        .bind(now)
+        .bind(&report_json)
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(true)
     }
 
     /// Stores a result and marks the job succeeded, in one transaction, if
@@ -763,6 +879,28 @@ impl Store {
                 .fetch_optional(&self.read)
                 .await?,
         )
+    }
+
+    /// The report of a run's most recent successful diagnosis.
+    pub async fn latest_diagnosis(&self, run_id: &str) -> Result<Option<String>, StoreError> {
+        Ok(sqlx::query_scalar(
+            "SELECT report FROM diagnoses WHERE run_id = ?
+             ORDER BY completed_at DESC, job_id DESC LIMIT 1",
+        )
+        .bind(run_id)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// A run's most recent diagnose job, if any.
+    pub async fn latest_diagnose_job(&self, run_id: &str) -> Result<Option<JobRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+             ORDER BY created_at DESC, id DESC LIMIT 1",
+        )
+        .bind(run_id)
+        .fetch_optional(&self.read)
+        .await?)
     }
 
     pub async fn list_units(

@@ -1,0 +1,202 @@
+//! The discrepancy workflow as a server job: queue it for a calibrated
+//! run, follow the job, read the report and its gap plot.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use reqwest::StatusCode;
+use serde_json::Value;
+use sinscal::io::data::DataFormat;
+use sinscal::model::{Effects, ErrorParameters};
+use sinscal::sim::{Noise, Scheme};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn diagnose_job_names_accel_delay() {
+    let app = spawn_app(1).await;
+    let dir = tempfile::tempdir().unwrap();
+    // The 9+9 scheme with 120 s dwells at 20 Hz: short enough to run in
+    // seconds, long enough for a 2 ms accelerometer delay to stand out.
+    let mut cfg = sim_config(11, ErrorParameters::paper(), "ten-position-9+9", 120.0);
+    cfg.sample_rate_hz = 20.0;
+    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
+    cfg.noise = Noise::default_navigation_grade();
+    cfg.effects = Effects {
+        accel_delay: Some(2.0),
+        ..Effects::none()
+    };
+    let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-D1", None);
+    let r = app.upload_run("RLG-D1", &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let up: Value = r.json().await.unwrap();
+    let run_id = up["run_id"].as_str().unwrap().to_string();
+    let calib = app
+        .wait_job(up["job_id"].as_str().unwrap(), Duration::from_secs(300))
+        .await;
+    assert_eq!(calib["state"], "succeeded", "{calib}");
+    assert_eq!(calib["kind"], "calibrate");
+
+    // Nothing asked for yet: 404.
+    let r = app
+        .get(&app.admin, &format!("/runs/{run_id}/diagnosis"))
+        .await;
+    assert_eq!(problem(r).await.0, StatusCode::NOT_FOUND);
+
+    // Stations upload; they do not diagnose.
+    let station = app.create_token("station").await;
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{run_id}/diagnose")))
+        .bearer_auth(&station)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(problem(r).await.0, StatusCode::FORBIDDEN);
+
+    // An unknown run: 404.
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{}/diagnose", uuid::Uuid::new_v4())))
+        .bearer_auth(&app.admin)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(problem(r).await.0, StatusCode::NOT_FOUND);
+
+    let engineer = app.create_token("engineer").await;
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{run_id}/diagnose")))
+        .bearer_auth(&engineer)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let location = r.headers()["location"].to_str().unwrap().to_string();
+    let job: Value = r.json().await.unwrap();
+    let job_id = job["id"].as_str().unwrap().to_string();
+    assert_eq!(location, format!("/api/v1/jobs/{job_id}"));
+    assert_eq!(job["kind"], "diagnose");
+    assert_eq!(job["run_id"], run_id.as_str());
+
+    // Asked again while it is queued or running: the same job, not another.
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{run_id}/diagnose")))
+        .bearer_auth(&engineer)
+        .send()
+        .await
+        .unwrap();
+    if r.status() == StatusCode::OK {
+        let again: Value = r.json().await.unwrap();
+        assert_eq!(again["id"], job_id.as_str());
+        assert_eq!(again["kind"], "diagnose");
+    } else {
+        // A new job may be queued only once the first has finished.
+        assert_eq!(r.status(), StatusCode::ACCEPTED);
+        let first = app.get_job(&job_id).await;
+        assert!(
+            matches!(
+                first["state"].as_str(),
+                Some("succeeded" | "failed" | "cancelled")
+            ),
+            "a second diagnose job was queued beside {first}"
+        );
+    }
+
+    let done = app.wait_job(&job_id, Duration::from_secs(600)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    assert_eq!(done["kind"], "diagnose");
+
+    let r = app
+        .get(&engineer, &format!("/runs/{run_id}/diagnosis"))
+        .await;
+    assert_eq!(r.status(), StatusCode::OK);
+    let report: Value = r.json().await.unwrap();
+    assert_eq!(report["named"][0], "accel_delay", "{}", report["verdict"]);
+    let (before, after) = (
+        report["gap_rms_before"].as_f64().unwrap(),
+        report["gap_rms_after"].as_f64().unwrap(),
+    );
+    assert!(after < before, "gap RMS {before} -> {after}");
+
+    let r = app
+        .get(&engineer, &format!("/runs/{run_id}/diagnosis/gap.svg"))
+        .await;
+    assert_eq!(r.status(), StatusCode::OK);
+    assert_eq!(r.headers()["content-type"], "image/svg+xml");
+    let svg = r.text().await.unwrap();
+    assert!(svg.starts_with("<svg"), "{}", &svg[..svg.len().min(80)]);
+
+    // The diagnosis wrote no calibration rows: the run's result is still
+    // its calibration job's.
+    let result = app.get_result(&run_id).await;
+    assert!(result["parameters"].is_object());
+    let run_view = app.get_run(&run_id).await;
+    assert_eq!(run_view["job_id"], calib["id"]);
+
+    app.stop().await;
+}
+
+#[tokio::test]
+async fn diagnosis_of_a_run_never_diagnosed_is_409_while_queued() {
+    // No workers: the job stays queued.
+    let app = spawn_app(0).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 3, DataFormat::F64le, "RLG-D2");
+    let r = app.upload_run("RLG-D2", &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let run_id = r.json::<Value>().await.unwrap()["run_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{run_id}/diagnose")))
+        .bearer_auth(&app.admin)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let r = app
+        .get(&app.admin, &format!("/runs/{run_id}/diagnosis"))
+        .await;
+    assert_eq!(problem(r).await.0, StatusCode::CONFLICT);
+    let r = app
+        .get(&app.admin, &format!("/runs/{run_id}/diagnosis/gap.svg"))
+        .await;
+    assert_eq!(problem(r).await.0, StatusCode::CONFLICT);
+    let r = app
+        .get(
+            &app.admin,
+            &format!("/runs/{}/diagnosis", uuid::Uuid::new_v4()),
+        )
+        .await;
+    assert_eq!(problem(r).await.0, StatusCode::NOT_FOUND);
+    app.stop().await;
+}
+
+#[tokio::test]
+async fn diagnose_on_a_full_queue_is_503() {
+    // No workers and a queue of one: the upload's job fills it.
+    let app = spawn_app_with(0, |c| c.max_queue = 1).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 4, DataFormat::F64le, "RLG-D3");
+    let r = app.upload_run("RLG-D3", &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let run_id = r.json::<Value>().await.unwrap()["run_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{run_id}/diagnose")))
+        .bearer_auth(&app.admin)
+        .send()
+        .await
+        .unwrap();
+    assert!(r.headers().contains_key("retry-after"));
+    assert_eq!(problem(r).await.0, StatusCode::SERVICE_UNAVAILABLE);
+    app.stop().await;
+}
