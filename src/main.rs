@@ -301,12 +301,7 @@ fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
         &a.run,
         &meta,
         &opts,
-        &mut |p| {
-            if p.stage != last_stage {
-                eprintln!("{:>3.0}% {}", 100.0 * p.fraction, p.stage);
-                last_stage = p.stage;
-            }
-        },
+        &mut |p| print_stage(&p, &mut last_stage),
         &cancel,
     )?;
     print!("unit {}\n{}", meta.unit_serial, result.table());
@@ -315,6 +310,14 @@ fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
         eprintln!("wrote {}", out.display());
     }
     Ok(())
+}
+
+/// Prints a progress line on stderr whenever the stage changes.
+fn print_stage(p: &sinscal::calib::Progress, last_stage: &mut String) {
+    if p.stage != *last_stage {
+        eprintln!("{:>3.0}% {}", 100.0 * p.fraction, p.stage);
+        *last_stage = p.stage.clone();
+    }
 }
 
 fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
@@ -368,12 +371,7 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<()> {
         &a.run,
         &meta,
         &DiagnoseOptions::default(),
-        &mut |p| {
-            if p.stage != last_stage {
-                eprintln!("{:>3.0}% {}", 100.0 * p.fraction, p.stage);
-                last_stage = p.stage;
-            }
-        },
+        &mut |p| print_stage(&p, &mut last_stage),
         &cancel,
     )?;
     print!("unit {}\n{}", meta.unit_serial, report.summary());
