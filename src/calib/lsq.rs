@@ -30,11 +30,54 @@ use super::estimate::{
     align_start, dwell_at, initial_navigation_covariance, prior_sigma, walk, PassContext,
 };
 use super::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
+use super::segment::RunSegment;
 use super::CalibError;
 use crate::model::{ErrorParameters, N_PARAMS};
 
 /// Stretches each dwell is cut into.
-const STRETCHES_PER_DWELL: usize = 4;
+pub(crate) const STRETCHES_PER_DWELL: usize = 4;
+
+/// Where the nodes fall: at the first and last window wholly inside each
+/// dwell and at `STRETCHES_PER_DWELL` − 1 evenly spaced windows between.
+pub(crate) struct NodeSchedule {
+    window_s: f64,
+    /// The dwell being crossed and how many of its windows were seen.
+    inside: Option<(usize, usize)>,
+}
+
+impl NodeSchedule {
+    pub(crate) fn new(window_s: f64) -> Self {
+        NodeSchedule {
+            window_s,
+            inside: None,
+        }
+    }
+
+    /// Called at every window's end, in order: the dwell index when this
+    /// window's end is a node.
+    pub(crate) fn node_at(
+        &mut self,
+        segments: &[RunSegment],
+        t_start: f64,
+        t_end: f64,
+    ) -> Option<usize> {
+        let d0 = dwell_at(segments, t_start);
+        let Some(d) = d0.filter(|_| d0 == dwell_at(segments, t_end)) else {
+            self.inside = None;
+            return None;
+        };
+        let count = match self.inside {
+            Some((dd, c)) if dd == d => c + 1,
+            _ => 0,
+        };
+        self.inside = Some((d, count));
+        let seg = &segments[d];
+        let capacity = ((seg.t_end - seg.t_start) / self.window_s).floor().max(1.0) as usize;
+        let stride = capacity.div_ceil(STRETCHES_PER_DWELL).max(1);
+        let last = t_end + self.window_s > seg.t_end;
+        (count == 0 || count % stride == 0 || last).then_some(d)
+    }
+}
 
 /// A node: the open-loop velocity there and what led to it.
 struct Node {
@@ -74,25 +117,13 @@ pub(super) fn lsq_pass(
         t: 0.0,
     }];
     let mut since_node = 0.0;
-    let mut inside: Option<(usize, usize)> = None; // (dwell, windows so far)
+    let mut schedule = NodeSchedule::new(window_s);
     walk(ctx, &comp, &c_b_n0, &mut sens, progress, |sens, w| {
         since_node += w.t_end - w.t_start;
-        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
-        let d = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
-        let Some(d) = d else {
-            inside = None;
-            return Ok(());
-        };
-        let count = match inside {
-            Some((dd, c)) if dd == d => c + 1,
-            _ => 0,
-        };
-        inside = Some((d, count));
-        let seg = &ctx.scan.segments[d];
-        let capacity = ((seg.t_end - seg.t_start) / window_s).floor().max(1.0) as usize;
-        let stride = capacity.div_ceil(STRETCHES_PER_DWELL).max(1);
-        let last = w.t_end + window_s > seg.t_end;
-        if count == 0 || count % stride == 0 || last {
+        if schedule
+            .node_at(&ctx.scan.segments, w.t_start, w.t_end)
+            .is_some()
+        {
             nodes.push(Node {
                 v: w.nav.v_n,
                 b: sens.take_sensitivity(),

@@ -25,18 +25,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::DiagnoseError;
-use crate::calib::estimate::{
-    dwell_at, initial_navigation_covariance, prior_sigma, walk, PassContext,
-};
+use crate::calib::estimate::{initial_navigation_covariance, prior_sigma, walk, PassContext};
 use crate::calib::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
+use crate::calib::lsq::NodeSchedule;
 use crate::calib::CalibError;
 use crate::model::{Compensator, Effects, ErrorParameters, N_PARAMS};
 use crate::nav::attitude::attitude_difference_n;
 use crate::nav::{Site, Strapdown};
 use crate::sim::{simulate, Noise, Scheme, SimConfig};
-
-/// Stretches each dwell is cut into (as the least-squares cross-check).
-const STRETCHES_PER_DWELL: usize = 4;
 
 /// Prior σ of a scaled effect parameter: a hundred signature sizes, so
 /// the prior only keeps an unobservable combination finite.
@@ -84,25 +80,10 @@ pub(crate) fn measured_nodes(
         segment: vec![0],
         series: vec![(0, Vector3::zeros())],
     };
-    let mut inside: Option<(usize, usize)> = None;
+    let mut schedule = NodeSchedule::new(window_s);
     walk(ctx, &comp, c_b_n0, &mut sens, progress, |sens, w| {
         nodes.series.push((rec_no(w.t_end), w.nav.v_n));
-        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
-        let d = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
-        let Some(d) = d else {
-            inside = None;
-            return Ok(());
-        };
-        let count = match inside {
-            Some((dd, c)) if dd == d => c + 1,
-            _ => 0,
-        };
-        inside = Some((d, count));
-        let seg = &ctx.scan.segments[d];
-        let capacity = ((seg.t_end - seg.t_start) / window_s).floor().max(1.0) as usize;
-        let stride = capacity.div_ceil(STRETCHES_PER_DWELL).max(1);
-        let last = w.t_end + window_s > seg.t_end;
-        if count == 0 || count % stride == 0 || last {
+        if let Some(d) = schedule.node_at(&ctx.scan.segments, w.t_start, w.t_end) {
             nodes.t.push(w.t_end);
             nodes.record.push(rec_no(w.t_end));
             nodes.v.push(w.nav.v_n);
