@@ -416,30 +416,7 @@ impl Store {
         if depth >= max_queue {
             return Ok(InsertOutcome::QueueFull);
         }
-        sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
-            .bind(&new.unit_serial)
-            .bind(new.uploaded_at)
-            .execute(&mut *tx)
-            .await?;
-        sqlx::query(
-            "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
-                               metadata, recorded_at, run_time, uploaded_at)
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-        )
-        .bind(&new.run_id)
-        .bind(&new.unit_serial)
-        .bind(&new.sha256)
-        .bind(new.size_bytes)
-        .bind(new.records)
-        .bind(&new.format)
-        .bind(new.gzip)
-        .bind(&new.blob_path)
-        .bind(&new.metadata)
-        .bind(new.recorded_at)
-        .bind(new.recorded_at.unwrap_or(new.uploaded_at))
-        .bind(new.uploaded_at)
-        .execute(&mut *tx)
-        .await?;
+        insert_unit_and_run(&mut tx, new).await?;
         sqlx::query(
             "INSERT INTO jobs (id, run_id, state, max_attempts, run_after, created_at)
              VALUES (?, ?, 'queued', ?, ?, ?)",
@@ -1058,30 +1035,7 @@ impl Store {
     ) -> Result<(), StoreError> {
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
         let run_time = new.recorded_at.unwrap_or(new.uploaded_at);
-        sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
-            .bind(&new.unit_serial)
-            .bind(new.uploaded_at)
-            .execute(&mut *tx)
-            .await?;
-        sqlx::query(
-            "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
-                               metadata, recorded_at, run_time, uploaded_at)
-             VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-        )
-        .bind(&new.run_id)
-        .bind(&new.unit_serial)
-        .bind(&new.sha256)
-        .bind(new.size_bytes)
-        .bind(new.records)
-        .bind(&new.format)
-        .bind(new.gzip)
-        .bind(&new.blob_path)
-        .bind(&new.metadata)
-        .bind(new.recorded_at)
-        .bind(run_time)
-        .bind(new.uploaded_at)
-        .execute(&mut *tx)
-        .await?;
+        insert_unit_and_run(&mut tx, new).await?;
         sqlx::query(
             "INSERT INTO jobs (id, run_id, state, attempts, max_attempts, run_after, progress, created_at, finished_at)
              VALUES (?, ?, 'succeeded', 1, ?, ?, 1, ?, ?)",
@@ -1126,4 +1080,37 @@ impl Store {
         tx.commit().await?;
         Ok(())
     }
+}
+
+/// The unit (if new) and the run's row, inside the caller's write
+/// transaction; a run's time is its recording time, else its upload time.
+async fn insert_unit_and_run(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    new: &NewRun,
+) -> Result<(), StoreError> {
+    sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
+        .bind(&new.unit_serial)
+        .bind(new.uploaded_at)
+        .execute(&mut **tx)
+        .await?;
+    sqlx::query(
+        "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
+                           metadata, recorded_at, run_time, uploaded_at)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+    )
+    .bind(&new.run_id)
+    .bind(&new.unit_serial)
+    .bind(&new.sha256)
+    .bind(new.size_bytes)
+    .bind(new.records)
+    .bind(&new.format)
+    .bind(new.gzip)
+    .bind(&new.blob_path)
+    .bind(&new.metadata)
+    .bind(new.recorded_at)
+    .bind(new.recorded_at.unwrap_or(new.uploaded_at))
+    .bind(new.uploaded_at)
+    .execute(&mut **tx)
+    .await?;
+    Ok(())
 }
