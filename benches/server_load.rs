@@ -6,6 +6,7 @@
 //! 4. the same reads on a database holding 10 000 calibrated runs.
 //!
 //! The second process is this binary again, started with `load`.
+//! `cargo bench --bench server_load -- --reads-only` runs part 4 alone.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -241,67 +242,109 @@ fn main() {
     if args.iter().any(|a| a == "--list") {
         return;
     }
+    let reads_only = args.iter().any(|a| a == "--reads-only");
     rt.block_on(async {
-        let work = tempfile::tempdir().unwrap();
-        eprintln!("simulating the 3.2 h run (CSV and f64le)…");
-        let csv = write_simulated_run(&sim(1), &work.path().join("csv"), DataFormat::Csv, false, "B-CSV").unwrap();
-        let bin = write_simulated_run(&sim(1), &work.path().join("bin"), DataFormat::F64le, false, "B-BIN").unwrap();
-        let meta_csv = std::fs::read(&csv.metadata).unwrap();
-        let meta_bin = std::fs::read(&bin.metadata).unwrap();
-
-        let data = tempfile::tempdir().unwrap();
-        let (c, stop, task, store) = start(data.path(), 2).await;
-
-        // 1. Upload → result, one at a time.
-        for (name, meta, file) in [("CSV", &meta_csv, &csv.data), ("f64le", &meta_bin, &bin.data)] {
-            let size = std::fs::metadata(file).unwrap().len();
-            let t = Instant::now();
-            let a = c.upload(&format!("LAT-{name}"), meta, file).await;
-            let uploaded = t.elapsed().as_secs_f64();
-            c.wait(a["job_id"].as_str().unwrap()).await;
-            println!(
-                "upload→result, 3.2 h 100 Hz {name} ({:.0} MB): {:.2} s (upload {uploaded:.2} s)",
-                size as f64 / 1e6,
-                t.elapsed().as_secs_f64()
-            );
+        if !reads_only {
+            timed_runs().await;
         }
-
-        // 2 + 3. Eight full runs queued at once on 2 workers; while they
-        // run, a second process reads history and repeatability.
-        seed(&store, 20, 50, "HIST").await;
-        let serials: Vec<String> = (0..20).map(|u| format!("HIST-{u:04}")).collect();
-        let n = 8;
-        let t = Instant::now();
-        let mut jobs = Vec::new();
-        for k in 0..n {
-            jobs.push(c.upload(&format!("THR-{k}"), &meta_bin, &bin.data).await);
-        }
-        let loader = run_load_process(&c, &serials, 8.0);
-        for j in &jobs {
-            c.wait(j["job_id"].as_str().unwrap()).await;
-        }
-        let hours = t.elapsed().as_secs_f64() / 3600.0;
-        println!("sustained: {n} runs (3.2 h, f64le) in {:.1} s on 2 workers = {:.0} runs/hour", hours * 3600.0, n as f64 / hours);
-        let out = loader.wait_with_output().unwrap();
-        println!("reads while both workers are busy (50 runs per unit, 4 concurrent clients in a second process): {}", String::from_utf8_lossy(&out.stdout).trim());
-        let _ = stop.send(());
-        task.await.unwrap();
-
-        // 4. A database holding 10 000 calibrated runs.
-        let big = tempfile::tempdir().unwrap();
-        let (c, stop, task, store) = start(big.path(), 2).await;
-        let t = Instant::now();
-        seed(&store, 100, 100, "DB").await;
-        eprintln!("seeded 10 000 runs in {:.1} s", t.elapsed().as_secs_f64());
-        let serials: Vec<String> = (0..100).map(|u| format!("DB-{u:04}")).collect();
-        let out = run_load_process(&c, &serials, 5.0).wait_with_output().unwrap();
-        println!("reads on 10 000 runs (100 units × 100 runs, idle workers, second process): {}", String::from_utf8_lossy(&out.stdout).trim());
-        let t = Instant::now();
-        seed(&store, 1, 10_000, "ONE").await;
-        eprintln!("seeded 10 000 more runs for one unit in {:.1} s", t.elapsed().as_secs_f64());
-        let out = run_load_process(&c, &["ONE-0000".to_string()], 5.0).wait_with_output().unwrap();
-        println!("reads of one unit holding 10 000 runs (history page of 100; repeatability over all 10 000): {}", String::from_utf8_lossy(&out.stdout).trim());
-        let _ = stop.send(());
-        task.await.unwrap();
+        reads_on_a_large_database().await;
     });
+}
+
+/// Parts 1–3: full-length runs through the server.
+async fn timed_runs() {
+    let work = tempfile::tempdir().unwrap();
+    eprintln!("simulating the 3.2 h run (CSV and f64le)…");
+    let csv = write_simulated_run(
+        &sim(1),
+        &work.path().join("csv"),
+        DataFormat::Csv,
+        false,
+        "B-CSV",
+    )
+    .unwrap();
+    let bin = write_simulated_run(
+        &sim(1),
+        &work.path().join("bin"),
+        DataFormat::F64le,
+        false,
+        "B-BIN",
+    )
+    .unwrap();
+    let meta_csv = std::fs::read(&csv.metadata).unwrap();
+    let meta_bin = std::fs::read(&bin.metadata).unwrap();
+
+    let data = tempfile::tempdir().unwrap();
+    let (c, stop, task, store) = start(data.path(), 2).await;
+
+    // 1. Upload → result, one at a time.
+    for (name, meta, file) in [
+        ("CSV", &meta_csv, &csv.data),
+        ("f64le", &meta_bin, &bin.data),
+    ] {
+        let size = std::fs::metadata(file).unwrap().len();
+        let t = Instant::now();
+        let a = c.upload(&format!("LAT-{name}"), meta, file).await;
+        let uploaded = t.elapsed().as_secs_f64();
+        c.wait(a["job_id"].as_str().unwrap()).await;
+        println!(
+            "upload→result, 3.2 h 100 Hz {name} ({:.0} MB): {:.2} s (upload {uploaded:.2} s)",
+            size as f64 / 1e6,
+            t.elapsed().as_secs_f64()
+        );
+    }
+
+    // 2 + 3. Eight full runs queued at once on 2 workers; while they
+    // run, a second process reads history and repeatability.
+    seed(&store, 20, 50, "HIST").await;
+    let serials: Vec<String> = (0..20).map(|u| format!("HIST-{u:04}")).collect();
+    let n = 8;
+    let t = Instant::now();
+    let mut jobs = Vec::new();
+    for k in 0..n {
+        jobs.push(c.upload(&format!("THR-{k}"), &meta_bin, &bin.data).await);
+    }
+    let loader = run_load_process(&c, &serials, 8.0);
+    for j in &jobs {
+        c.wait(j["job_id"].as_str().unwrap()).await;
+    }
+    let hours = t.elapsed().as_secs_f64() / 3600.0;
+    println!(
+        "sustained: {n} runs (3.2 h, f64le) in {:.1} s on 2 workers = {:.0} runs/hour",
+        hours * 3600.0,
+        n as f64 / hours
+    );
+    let out = loader.wait_with_output().unwrap();
+    println!("reads while both workers are busy (50 runs per unit, 4 concurrent clients in a second process): {}", String::from_utf8_lossy(&out.stdout).trim());
+    let _ = stop.send(());
+    task.await.unwrap();
+}
+
+/// Part 4: a database holding 10 000 calibrated runs.
+async fn reads_on_a_large_database() {
+    let big = tempfile::tempdir().unwrap();
+    let (c, stop, task, store) = start(big.path(), 2).await;
+    let t = Instant::now();
+    seed(&store, 100, 100, "DB").await;
+    eprintln!("seeded 10 000 runs in {:.1} s", t.elapsed().as_secs_f64());
+    let serials: Vec<String> = (0..100).map(|u| format!("DB-{u:04}")).collect();
+    let out = run_load_process(&c, &serials, 5.0)
+        .wait_with_output()
+        .unwrap();
+    println!(
+        "reads on 10 000 runs (100 units × 100 runs, idle workers, second process): {}",
+        String::from_utf8_lossy(&out.stdout).trim()
+    );
+    let t = Instant::now();
+    seed(&store, 1, 10_000, "ONE").await;
+    eprintln!(
+        "seeded 10 000 more runs for one unit in {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+    let out = run_load_process(&c, &["ONE-0000".to_string()], 5.0)
+        .wait_with_output()
+        .unwrap();
+    println!("reads of one unit holding 10 000 runs (history page of 100; repeatability over all 10 000): {}", String::from_utf8_lossy(&out.stdout).trim());
+    let _ = stop.send(());
+    task.await.unwrap();
 }

@@ -405,11 +405,12 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         .await
         .unwrap();
     assert_eq!(results as usize, runs.len(), "exactly one result per job");
-    let params: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM result_params")
-        .fetch_one(&db)
-        .await
-        .unwrap();
-    assert_eq!(params as usize, 24 * runs.len());
+    let blobs: i64 =
+        sqlx::query_scalar("SELECT COUNT(*) FROM results WHERE length(param_values) = 192")
+            .fetch_one(&db)
+            .await
+            .unwrap();
+    assert_eq!(blobs as usize, runs.len(), "every result has its 24 values");
     let max_attempts: i64 = sqlx::query_scalar("SELECT MAX(attempts) FROM jobs")
         .fetch_one(&db)
         .await

@@ -13,7 +13,6 @@ use serde::{Deserialize, Serialize};
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::{parse_time, rfc3339, AppState};
-use crate::calib::ParameterEstimate;
 use crate::io::meta::validate_serial;
 use crate::model::PARAMETERS;
 use crate::store::UnitSummary;
@@ -95,7 +94,9 @@ pub struct HistoryItem {
     pub job_id: String,
     pub run_time: String,
     pub completed_at: String,
-    pub parameters: BTreeMap<String, ParameterEstimate>,
+    /// The stored JSON, passed through: a page of 100 runs is 2400
+    /// estimates, not worth parsing only to print again.
+    pub parameters: Box<serde_json::value::RawValue>,
 }
 
 #[derive(Serialize)]
@@ -220,7 +221,7 @@ async fn history(
         .into_iter()
         .map(|r| {
             Ok(HistoryItem {
-                parameters: serde_json::from_str(&r.parameters)
+                parameters: serde_json::value::RawValue::from_string(r.parameters)
                     .map_err(|e| ApiError::Internal(e.to_string()))?,
                 run_id: r.run_id,
                 job_id: r.job_id,

@@ -25,6 +25,10 @@ use sqlx::{FromRow, Row};
 
 use crate::calib::{CalibrationResult, ParameterEstimate};
 
+mod spread;
+pub use spread::ParamSpread;
+use spread::SpreadAccumulator;
+
 /// The migrations in `migrations/`, embedded in the binary so that a fresh
 /// machine needs nothing but the executable.
 static MIGRATOR: sqlx::migrate::Migrator = sqlx::migrate!("./migrations");
@@ -226,20 +230,6 @@ pub struct HistoryRow {
     pub parameters: String,
 }
 
-/// One parameter's spread over a unit's runs.
-#[derive(Clone, Debug)]
-pub struct ParamSpread {
-    pub name: String,
-    pub n: i64,
-    pub mean: f64,
-    /// Σ (v − mean)².
-    pub sum_sq: f64,
-    pub min: f64,
-    pub max: f64,
-    /// Largest |v_k − v_{k−1}| between consecutive runs in time order.
-    pub max_change: Option<f64>,
-}
-
 fn connect_options(db_path: &Path) -> SqliteConnectOptions {
     SqliteConnectOptions::new()
         .filename(db_path)
@@ -256,11 +246,12 @@ impl Store {
         let write = SqlitePoolOptions::new()
             .max_connections(1)
             // A writer waiting for the single connection must not give up
-            // while a long transaction (a result with its 24 rows) commits.
+            // while a long transaction (an upload's rows, a backfill) commits.
             .acquire_timeout(Duration::from_secs(30))
             .connect_with(connect_options(db_path))
             .await?;
         MIGRATOR.run(&write).await?;
+        backfill_param_values(&write).await?;
         let read = SqlitePoolOptions::new()
             .max_connections(readers.max(1))
             .acquire_timeout(Duration::from_secs(30))
@@ -473,7 +464,7 @@ impl Store {
             return Ok(Err("running".into()));
         }
         for sql in [
-            "DELETE FROM result_params WHERE run_id = ?",
+            "DELETE FROM result_documents WHERE run_id = ?",
             "DELETE FROM results WHERE run_id = ?",
             "DELETE FROM diagnoses WHERE run_id = ?",
             "DELETE FROM jobs WHERE run_id = ?",
@@ -732,7 +723,6 @@ impl Store {
         let now = now_ms();
         let fence = &claim.fence;
         let result_json = serde_json::to_string(result)?;
-        let params_json = serde_json::to_string(&result.parameters)?;
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
         let updated = sqlx::query(
             "UPDATE jobs SET state = 'succeeded', progress = 1, stage = 'done', finished_at = ?,
@@ -749,34 +739,16 @@ impl Store {
             tx.rollback().await?;
             return Ok(false);
         }
-        sqlx::query(
-            "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters, result)
-             VALUES (?, ?, ?, ?, ?, ?, ?)",
-        )
-        .bind(&claim.run_id)
-        .bind(&fence.job_id)
-        .bind(&claim.unit_serial)
-        .bind(claim.run_time)
-        .bind(now)
-        .bind(&params_json)
-        .bind(&result_json)
-        .execute(&mut *tx)
-        .await?;
-        for (name, p) in &result.parameters {
-            sqlx::query(
-                "INSERT INTO result_params (run_id, unit_serial, run_time, name, value, sigma, unit)
-                 VALUES (?, ?, ?, ?, ?, ?, ?)",
-            )
-            .bind(&claim.run_id)
-            .bind(&claim.unit_serial)
-            .bind(claim.run_time)
-            .bind(name)
-            .bind(p.value)
-            .bind(p.sigma)
-            .bind(&p.unit)
-            .execute(&mut *tx)
-            .await?;
-        }
+        let stored = StoredResult {
+            run_id: &claim.run_id,
+            job_id: &fence.job_id,
+            unit_serial: &claim.unit_serial,
+            run_time: claim.run_time,
+            completed_at: now,
+            parameters: &result.parameters,
+            document: &result_json,
+        };
+        insert_result(&mut tx, &stored).await?;
         tx.commit().await?;
         Ok(true)
     }
@@ -851,7 +823,7 @@ impl Store {
 
     pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
         Ok(
-            sqlx::query_scalar("SELECT result FROM results WHERE run_id = ?")
+            sqlx::query_scalar("SELECT result FROM result_documents WHERE run_id = ?")
                 .bind(run_id)
                 .fetch_optional(&self.read)
                 .await?,
@@ -959,70 +931,48 @@ impl Store {
         Ok((total, rows))
     }
 
-    /// Per-parameter aggregates over a unit's calibrated runs with
+    /// Per-parameter spread over a unit's calibrated runs with
     /// `run_time >= since`, the `last` most recent of them (`None`: all).
     ///
-    /// Both queries are range scans of the covering index
-    /// `result_params_cover`, already in (name, time) order.
+    /// One range scan of `results_unit_time_run` reading one value blob per
+    /// run, in time order (ties by run id, as history orders them).
     pub async fn repeatability(
         &self,
         serial: &str,
         since: i64,
         last: Option<i64>,
     ) -> Result<Vec<ParamSpread>, StoreError> {
-        // With `last`, the time of the N-th most recent run bounds the scan.
-        let mut from = since;
-        if let Some(n) = last {
-            let nth: Option<i64> = sqlx::query_scalar(
-                "SELECT run_time FROM results WHERE unit_serial = ? AND run_time >= ?
-                 ORDER BY run_time DESC LIMIT 1 OFFSET ?",
-            )
-            .bind(serial)
-            .bind(since)
-            .bind(n - 1)
-            .fetch_optional(&self.read)
-            .await?;
-            if let Some(t) = nth {
-                from = from.max(t);
+        let mut blobs: Vec<Vec<u8>> = match last {
+            Some(n) => {
+                sqlx::query_scalar(
+                    "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
+                     ORDER BY run_time DESC, run_id DESC LIMIT ?",
+                )
+                .bind(serial)
+                .bind(since)
+                .bind(n)
+                .fetch_all(&self.read)
+                .await?
             }
+            None => {
+                sqlx::query_scalar(
+                    "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
+                     ORDER BY run_time, run_id",
+                )
+                .bind(serial)
+                .bind(since)
+                .fetch_all(&self.read)
+                .await?
+            }
+        };
+        if last.is_some() {
+            blobs.reverse();
         }
-        // One scan of the covering index, in (name, time) order, aggregated
-        // in SQL so only 24 rows cross into Rust (sqlx's SQLite driver costs
-        // microseconds per row). Σ(v − mean)² is computed about the first
-        // value c as Σ(v − c)² − n (mean − c)², which keeps its precision
-        // for values like 500 ppm ± 0.2 where Σv² − n·mean² would not.
-        let rows = sqlx::query(
-            "SELECT name, COUNT(*), AVG(value), MIN(value), MAX(value),
-                    SUM((value - c) * (value - c)), AVG(value - c), MAX(ABS(d))
-             FROM (SELECT name, value,
-                          FIRST_VALUE(value) OVER w AS c,
-                          value - LAG(value) OVER w AS d
-                   FROM result_params
-                   WHERE unit_serial = ?1 AND run_time >= ?2
-                   WINDOW w AS (PARTITION BY name ORDER BY run_time))
-             GROUP BY name",
-        )
-        .bind(serial)
-        .bind(from)
-        .fetch_all(&self.read)
-        .await?;
-        Ok(rows
-            .into_iter()
-            .map(|r| {
-                let n: i64 = r.get(1);
-                let shifted_mean: f64 = r.get(6);
-                let sum_sq: f64 = r.get::<f64, _>(5) - n as f64 * shifted_mean * shifted_mean;
-                ParamSpread {
-                    name: r.get(0),
-                    n,
-                    mean: r.get(2),
-                    sum_sq: sum_sq.max(0.0),
-                    min: r.get(3),
-                    max: r.get(4),
-                    max_change: r.get(7),
-                }
-            })
-            .collect())
+        let mut acc = SpreadAccumulator::default();
+        for b in &blobs {
+            acc.push(b);
+        }
+        Ok(acc.finish())
     }
 
     /// Stores a finished result for a run directly (benchmark seeding and
@@ -1048,38 +998,82 @@ impl Store {
         .bind(new.uploaded_at)
         .execute(&mut *tx)
         .await?;
-        let params_json = serde_json::to_string(parameters)?;
-        sqlx::query(
-            "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters, result)
-             VALUES (?, ?, ?, ?, ?, ?, ?)",
-        )
-        .bind(&new.run_id)
-        .bind(&new.job_id)
-        .bind(&new.unit_serial)
-        .bind(run_time)
-        .bind(new.uploaded_at)
-        .bind(&params_json)
-        .bind(format!("{{\"parameters\":{params_json}}}"))
-        .execute(&mut *tx)
-        .await?;
-        for (name, p) in parameters {
-            sqlx::query(
-                "INSERT INTO result_params (run_id, unit_serial, run_time, name, value, sigma, unit)
-                 VALUES (?, ?, ?, ?, ?, ?, ?)",
-            )
-            .bind(&new.run_id)
-            .bind(&new.unit_serial)
-            .bind(run_time)
-            .bind(name)
-            .bind(p.value)
-            .bind(p.sigma)
-            .bind(&p.unit)
-            .execute(&mut *tx)
-            .await?;
-        }
+        let document = serde_json::json!({ "parameters": parameters }).to_string();
+        let stored = StoredResult {
+            run_id: &new.run_id,
+            job_id: &new.job_id,
+            unit_serial: &new.unit_serial,
+            run_time,
+            completed_at: new.uploaded_at,
+            parameters,
+            document: &document,
+        };
+        insert_result(&mut tx, &stored).await?;
         tx.commit().await?;
         Ok(())
     }
+}
+
+/// A finished calibration as stored: the summary row history and
+/// repeatability read, and the whole document apart.
+struct StoredResult<'a> {
+    run_id: &'a str,
+    job_id: &'a str,
+    unit_serial: &'a str,
+    run_time: i64,
+    completed_at: i64,
+    parameters: &'a BTreeMap<String, ParameterEstimate>,
+    /// The whole `CalibrationResult` JSON.
+    document: &'a str,
+}
+
+async fn insert_result(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    r: &StoredResult<'_>,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
+                              param_values)
+         VALUES (?, ?, ?, ?, ?, ?, ?)",
+    )
+    .bind(r.run_id)
+    .bind(r.job_id)
+    .bind(r.unit_serial)
+    .bind(r.run_time)
+    .bind(r.completed_at)
+    .bind(serde_json::to_string(r.parameters)?)
+    .bind(spread::encode(r.parameters))
+    .execute(&mut **tx)
+    .await?;
+    sqlx::query("INSERT INTO result_documents (run_id, result) VALUES (?, ?)")
+        .bind(r.run_id)
+        .bind(r.document)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}
+
+/// Gives every result stored before `param_values` existed its value blob,
+/// from the `parameters` JSON it has always carried. A no-op afterwards.
+async fn backfill_param_values(write: &SqlitePool) -> Result<(), StoreError> {
+    let rows: Vec<(String, String)> =
+        sqlx::query_as("SELECT run_id, parameters FROM results WHERE param_values IS NULL")
+            .fetch_all(write)
+            .await?;
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let mut tx = write.begin_with("BEGIN IMMEDIATE").await?;
+    for (run_id, json) in rows {
+        let parameters: BTreeMap<String, ParameterEstimate> = serde_json::from_str(&json)?;
+        sqlx::query("UPDATE results SET param_values = ? WHERE run_id = ?")
+            .bind(spread::encode(&parameters))
+            .bind(&run_id)
+            .execute(&mut *tx)
+            .await?;
+    }
+    tx.commit().await?;
+    Ok(())
 }
 
 /// The unit (if new) and the run's row, inside the caller's write
@@ -1113,4 +1107,94 @@ async fn insert_unit_and_run(
     .execute(&mut **tx)
     .await?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::PARAMETERS;
+
+    /// A database left by the schema before `param_values` (migrations 1–3:
+    /// the document inside `results`, per-parameter rows) opens with every
+    /// result's value blob filled in and its document kept.
+    #[tokio::test]
+    async fn results_stored_before_the_value_blob_are_backfilled() {
+        let dir = tempfile::tempdir().unwrap();
+        let db_path = dir.path().join("old.db");
+        let pool = SqlitePool::connect_with(connect_options(&db_path))
+            .await
+            .unwrap();
+        let old = sqlx::migrate::Migrator {
+            migrations: MIGRATOR.migrations[..3].to_vec().into(),
+            ..sqlx::migrate::Migrator::DEFAULT
+        };
+        old.run(&pool).await.unwrap();
+        sqlx::query("INSERT INTO units (serial, created_at) VALUES ('OLD-1', 0)")
+            .execute(&pool)
+            .await
+            .unwrap();
+        for (k, offset) in [0.0, 0.4, 0.1].into_iter().enumerate() {
+            let params: BTreeMap<String, ParameterEstimate> = PARAMETERS
+                .iter()
+                .map(|p| {
+                    let e = ParameterEstimate {
+                        value: 500.0 + offset,
+                        sigma: 0.1,
+                        unit: p.unit.into(),
+                    };
+                    (p.name.to_string(), e)
+                })
+                .collect();
+            let run = format!("run-{k}");
+            sqlx::query(
+                "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip,
+                                   blob_path, metadata, run_time, uploaded_at)
+                 VALUES (?, 'OLD-1', ?, 0, 0, 'csv', 0, 'runs/x', '{}', ?, 0)",
+            )
+            .bind(&run)
+            .bind(&run)
+            .bind(k as i64)
+            .execute(&pool)
+            .await
+            .unwrap();
+            sqlx::query(
+                "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at,
+                                      parameters, result)
+                 VALUES (?, 'job', 'OLD-1', ?, 0, ?, '{}')",
+            )
+            .bind(&run)
+            .bind(k as i64)
+            .bind(serde_json::to_string(&params).unwrap())
+            .execute(&pool)
+            .await
+            .unwrap();
+        }
+        pool.close().await;
+
+        let store = Store::open(&db_path, 1).await.unwrap();
+        let missing: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM results WHERE param_values IS NULL")
+                .fetch_one(&store.read)
+                .await
+                .unwrap();
+        assert_eq!(missing, 0);
+        assert_eq!(
+            store.get_result("run-1").await.unwrap().as_deref(),
+            Some("{}")
+        );
+        let spread = store.repeatability("OLD-1", i64::MIN, None).await.unwrap();
+        assert_eq!(spread.len(), PARAMETERS.len());
+        let s = &spread[0];
+        assert_eq!(s.n, 3);
+        assert!((s.mean - (1500.5 / 3.0)).abs() < 1e-9);
+        // In time order 500.0, 500.4, 500.1: the largest change is 0.4.
+        assert!((s.max_change.unwrap() - 0.4).abs() < 1e-9);
+        let last2 = store
+            .repeatability("OLD-1", i64::MIN, Some(2))
+            .await
+            .unwrap();
+        assert_eq!(last2[0].n, 2);
+        assert!((last2[0].mean - 500.25).abs() < 1e-9);
+        store.close().await;
+    }
 }
