@@ -26,6 +26,7 @@ pub mod candidates;
 pub mod gap;
 pub mod plot;
 pub mod reconstruct;
+pub mod separate;
 
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
@@ -179,6 +180,9 @@ pub struct DiagnoseStep {
     /// Candidates that fit as well as the best and cannot be told apart.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub indistinguishable: Vec<String>,
+    /// For each of them, the turn that would part it from the best.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub separating_turns: Vec<separate::SeparatingTurn>,
     pub decision: String,
 }
 
@@ -325,6 +329,80 @@ fn effect_estimates(lib: &Library, fit: &GapFit, c: usize) -> Vec<EffectEstimate
             })
         })
         .collect()
+}
+
+/// Where a turn appended to the run would start (the scheme's last
+/// attitude) and how it would run (the scheme's median rate, acceleration
+/// and dwell).
+fn probe_context<'a>(
+    ctx: &PassContext<'a>,
+    recon: &Reconstruction,
+    params: &'a ErrorParameters,
+    c_b_n0: &nalgebra::Matrix3<f64>,
+) -> Result<separate::ProbeContext<'a>, DiagnoseError> {
+    let trajectory = crate::sim::trajectory::Trajectory::new(&recon.scheme, c_b_n0, &ctx.run.site)
+        .map_err(DiagnoseError::Scheme)?;
+    let median = |mut v: Vec<f64>, default: f64| -> f64 {
+        if v.is_empty() {
+            return default;
+        }
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let rate_dps = median(recon.rotations.iter().map(|r| r.rate_dps).collect(), 10.0);
+    let accel_dps2 = median(recon.rotations.iter().map(|r| r.accel_dps2).collect(), 10.0);
+    let dwell_s = median(
+        recon
+            .scheme
+            .steps
+            .iter()
+            .filter_map(|s| match s {
+                crate::sim::scheme::Step::Dwell { dwell_s } => Some(*dwell_s),
+                _ => None,
+            })
+            .collect(),
+        300.0,
+    );
+    Ok(separate::ProbeContext {
+        site: ctx.run.site,
+        sample_rate_hz: ctx.run.sample_rate_hz,
+        c_b_n_start: trajectory.c_b_n_end(),
+        compensation: params,
+        rate_dps,
+        accel_dps2,
+        dwell_s,
+        arw: ctx.arw,
+        vrw: ctx.vrw,
+        cancel: ctx.cancel,
+    })
+}
+
+/// What a fit says the sensor is: the base calibration `params` with the
+/// fit's base corrections composed in, and the effects of candidates
+/// `cands` at their fitted values.
+fn explanation(
+    lib: &Library,
+    params: &ErrorParameters,
+    prior: &[f64],
+    fit: &GapFit,
+    cands: &[usize],
+) -> separate::Explanation {
+    let mut delta = ErrorParameters::zero();
+    for ((d, b), s) in delta.si.iter_mut().zip(&fit.base).zip(prior) {
+        *d = b * s;
+    }
+    let mut effects = Effects::none();
+    for &c in cands {
+        let values: Vec<f64> = effect_estimates(lib, fit, c)
+            .iter()
+            .map(|e| e.value)
+            .collect();
+        candidates::add_effect(&mut effects, lib.candidates[c].name, &values);
+    }
+    separate::Explanation {
+        params: params.compose(&delta),
+        effects,
+    }
 }
 
 /// Weighted inner product of two residual sequences.
@@ -604,6 +682,7 @@ pub fn diagnose(
         })
     })?;
     let problem = GapProblem::new(&ctx, &nodes, &sig, lib.n)?;
+    let prior = crate::calib::estimate::prior_sigma(opts.estimate.prior_scale);
     stage(progress, 0.9, "selecting effects");
 
     let kinds = stretch_kinds(&nodes, &scan.segments);
@@ -688,6 +767,7 @@ pub fn diagnose(
             localisation,
             named: None,
             indistinguishable: Vec::new(),
+            separating_turns: Vec::new(),
             decision: String::new(),
         };
         let best = scores
@@ -731,7 +811,7 @@ pub fn diagnose(
         };
         let e_best = explained(best_fit);
         let n_best = inner(&current, &e_best, &e_best).sqrt();
-        let mut rivals = Vec::new();
+        let mut rivals: Vec<usize> = Vec::new();
         for (oi, other) in scores.iter().enumerate() {
             if oi == bi || other.delta_bic < opts.bic_threshold || other.effect == best.effect {
                 continue;
@@ -743,25 +823,51 @@ pub fn diagnose(
             let cos = inner(&current, &e_best, &e_o)
                 / (n_best * inner(&current, &e_o, &e_o).sqrt()).max(f64::MIN_POSITIVE);
             if cos > opts.collinear_cos {
-                rivals.push(other.effect.clone());
+                rivals.push(oi);
             }
         }
         if !rivals.is_empty() {
+            // Each explanation with its own fitted parameters, probed on
+            // the turns the scheme could add.
+            let probe = probe_context(&ctx, &recon, &params, &c_b_n0)?;
+            let with = |c: usize| -> Vec<usize> { named.iter().copied().chain([c]).collect() };
+            let best_expl = explanation(&lib, &params, &prior, best_fit, &with(*best_c));
             let mut hints = Vec::new();
-            for r in &rivals {
-                hints.push(format!(
-                    "{} vs {r}: add {}",
-                    best.effect,
-                    candidates::separating_motion(&best.effect, r)
-                ));
+            for &oi in &rivals {
+                let (rc, rival_fit) = &fits[oi];
+                let rival = &scores[oi];
+                let rival_expl = explanation(&lib, &params, &prior, rival_fit, &with(*rc));
+                let turn = separate::separating_turn(
+                    &probe,
+                    [&best.candidate, &rival.candidate],
+                    &best_expl,
+                    &rival_expl,
+                )?;
+                hints.push(match &turn {
+                    Some(t) => format!(
+                        "{} vs {}: add a {}",
+                        best.effect,
+                        rival.effect,
+                        t.describe()
+                    ),
+                    None => format!(
+                        "{} vs {}: no single body-axis turn parts them; {}",
+                        best.effect,
+                        rival.effect,
+                        candidates::separating_motion(&best.effect, &rival.effect)
+                    ),
+                });
+                step.separating_turns.extend(turn);
             }
+            let rival_effects: Vec<String> =
+                rivals.iter().map(|&oi| scores[oi].effect.clone()).collect();
             verdict = format!(
                 "ambiguous: {} and {} cannot be told apart on this scheme ({})",
                 best.effect,
-                rivals.join(", "),
+                rival_effects.join(", "),
                 hints.join("; ")
             );
-            step.indistinguishable = rivals;
+            step.indistinguishable = rival_effects;
             step.decision = verdict.clone();
             steps.push(step);
             break;
@@ -791,12 +897,8 @@ pub fn diagnose(
 
     // The final calibration: base corrections composed into the base
     // calibration, the effects as fitted.
-    let prior = crate::calib::estimate::prior_sigma(opts.estimate.prior_scale);
-    let mut delta = ErrorParameters::zero();
-    for ((d, b), s) in delta.si.iter_mut().zip(&current.base).zip(&prior) {
-        *d = b * s;
-    }
-    let final_params = params.compose(&delta);
+    let final_expl = explanation(&lib, &params, &prior, &current, &named);
+    let final_params = final_expl.params;
     let mut calibration = base_cal.clone();
     for (i, info) in PARAMETERS.iter().enumerate() {
         calibration.parameters.insert(
@@ -808,15 +910,12 @@ pub fn diagnose(
             },
         );
     }
-    let mut effects = Effects::none();
+    let effects = final_expl.effects;
     let mut model = "base-24".to_string();
     for &c in &named {
-        let est = effect_estimates(&lib, &current, c);
-        let values: Vec<f64> = est.iter().map(|e| e.value).collect();
-        candidates::add_effect(&mut effects, lib.candidates[c].name, &values);
         model.push('+');
         model.push_str(lib.candidates[c].effect);
-        for e in est {
+        for e in effect_estimates(&lib, &current, c) {
             calibration.effects.insert(
                 e.name,
                 ParameterEstimate {
