@@ -186,8 +186,8 @@ struct SimulateArgs {
     #[arg(long)]
     effects: Option<PathBuf>,
     /// Initial attitude error, rotation vector in n, degrees: "x,y,z".
-    #[arg(long, value_delimiter = ',', num_args = 3, allow_hyphen_values = true)]
-    attitude_error: Option<Vec<f64>>,
+    #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
+    attitude_error: Option<[f64; 3]>,
     /// Unit serial written into run.json.
     #[arg(long, default_value = "SIM-0001")]
     serial: String,
@@ -237,7 +237,7 @@ fn simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
         Some(p) => read_json(p)?,
         None => Effects::none(),
     };
-    let attitude = a.attitude_error.clone().unwrap_or_else(|| vec![0.0; 3]);
+    let attitude = a.attitude_error.unwrap_or([0.0; 3]);
     Ok(SimConfig {
         site: Site::new(a.latitude, a.longitude, a.height),
         sample_rate_hz: a.rate.unwrap_or(100.0),
@@ -248,7 +248,7 @@ fn simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
             gyro_arw_deg_rt_h: a.arw,
             accel_vrw_ug_rt_hz: a.vrw,
         },
-        initial_attitude_error_deg: [attitude[0], attitude[1], attitude[2]],
+        initial_attitude_error_deg: attitude,
         seed: a.seed,
     })
 }
@@ -385,6 +385,16 @@ fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<()> {
         eprintln!("wrote {}", svg.display());
     }
     Ok(())
+}
+
+/// "x,y,z" as three numbers. One value, not three, so that the flag may
+/// stand anywhere on the command line.
+fn parse_triple(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    <[f64; 3]>::try_from(v).map_err(|v| format!("expected x,y,z, got {} numbers", v.len()))
 }
 
 fn main() -> anyhow::Result<()> {

@@ -142,3 +142,39 @@ fn simulate_refuses_half_given_options() {
     assert!(!output.status.success());
     assert!(String::from_utf8_lossy(&output.stderr).contains("--params"));
 }
+
+/// `--attitude-error x,y,z` is one value: it may stand anywhere, a negative
+/// first component included, and a wrong count is refused.
+#[test]
+fn simulate_takes_the_attitude_error_anywhere_on_the_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let status = sinscal()
+        .args([
+            "simulate",
+            "--scheme",
+            "ten-position",
+            "--dwell",
+            "20",
+            "--params",
+            "paper",
+        ])
+        .args(["--attitude-error", "-0.1,0.2,3", "--serial", "ATT-1"])
+        .args(["--rate", "10", "--format", "f64le", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let truth: Truth = read_json(&out.join("truth.json")).unwrap();
+    assert_eq!(truth.initial_attitude_error_deg, [-0.1, 0.2, 3.0]);
+    let meta: RunMetadata = read_json(&out.join("run.json")).unwrap();
+    assert_eq!(meta.unit_serial, "ATT-1");
+
+    let bad = sinscal()
+        .args(["simulate", "--attitude-error", "1,2", "--out"])
+        .arg(dir.path().join("bad"))
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("expected x,y,z, got 2 numbers"));
+}
