@@ -13,22 +13,10 @@ use sinscal::calib::EstimateOptions;
 use sinscal::io::data::DataFormat;
 use sinscal::io::meta::RunMetadata;
 use sinscal::io::run::write_simulated_run;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
 use sinscal::pipeline::calibrate_file;
-use sinscal::sim::{Noise, Scheme, SimConfig};
 
 fn main() {
-    let cfg = SimConfig {
-        site: Site::new(28.2215, 112.9924, 50.0),
-        sample_rate_hz: 100.0,
-        scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
-        params: ErrorParameters::paper(),
-        effects: Effects::none(),
-        noise: Noise::default_navigation_grade(),
-        initial_attitude_error_deg: [0.1, -0.1, 2.0],
-        seed: 1,
-    };
+    let cfg = common::reference_run();
     let dir = std::env::temp_dir().join(format!("sinscal-bench-calib-{}", std::process::id()));
     let cancel = AtomicBool::new(false);
     println!("peak RSS before calibrating: {:.1} MB", peak_rss_mb());

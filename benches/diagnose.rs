@@ -15,10 +15,9 @@ use sinscal::diagnose::DiagnoseOptions;
 use sinscal::io::data::DataFormat;
 use sinscal::io::meta::RunMetadata;
 use sinscal::io::run::write_simulated_run;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
+use sinscal::model::Effects;
 use sinscal::pipeline::diagnose_file;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal::sim::SimConfig;
 
 /// Lowers this process's peak RSS to its current RSS (Linux `clear_refs`),
 /// so a case's figure is not the previous case's peak. False where
@@ -28,16 +27,7 @@ fn reset_peak_rss() -> bool {
 }
 
 fn main() {
-    let reference = SimConfig {
-        site: Site::new(28.2215, 112.9924, 50.0),
-        sample_rate_hz: 100.0,
-        scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
-        params: ErrorParameters::paper(),
-        effects: Effects::none(),
-        noise: Noise::default_navigation_grade(),
-        initial_attitude_error_deg: [0.1, -0.1, 2.0],
-        seed: 1,
-    };
+    let reference = common::reference_run();
     let cases = [
         (
             "accel_delay 2 ms",
