@@ -116,23 +116,44 @@ pub struct SimSetup<'a> {
     pub cancel: &'a AtomicBool,
 }
 
+/// A noise-free simulation of `scheme` starting at attitude `c_b_n0`.
+pub(crate) fn noise_free_run(
+    site: Site,
+    sample_rate_hz: f64,
+    scheme: Scheme,
+    params: ErrorParameters,
+    effects: Effects,
+    c_b_n0: &Matrix3<f64>,
+) -> SimConfig {
+    // The simulator starts from the nominal attitude turned by this
+    // rotation vector, so the whole start attitude goes in as the "error".
+    let phi0 = crate::nav::attitude::dcm_to_rotvec(c_b_n0);
+    SimConfig {
+        site,
+        sample_rate_hz,
+        scheme,
+        params,
+        effects,
+        noise: Noise::default(),
+        initial_attitude_error_deg: phi0.map(f64::to_degrees).into(),
+        seed: 0,
+    }
+}
+
 fn simulate_nav(
     s: &SimSetup,
     effects: Effects,
     node_records: &[u64],
     series_records: &[u64],
 ) -> Result<SimNav, DiagnoseError> {
-    let phi0 = crate::nav::attitude::dcm_to_rotvec(&s.c_b_n0);
-    let cfg = SimConfig {
-        site: s.site,
-        sample_rate_hz: s.sample_rate_hz,
-        scheme: s.scheme.clone(),
-        params: s.params,
+    let cfg = noise_free_run(
+        s.site,
+        s.sample_rate_hz,
+        s.scheme.clone(),
+        s.params,
         effects,
-        noise: Noise::default(),
-        initial_attitude_error_deg: phi0.map(f64::to_degrees).into(),
-        seed: 0,
-    };
+        &s.c_b_n0,
+    );
     let dt = 1.0 / s.sample_rate_hz;
     let comp: Compensator = s.params.compensator();
     let mut nav = Strapdown::new(&s.site, &s.c_b_n0, 0.0, dt);

@@ -25,7 +25,7 @@ use crate::model::{Effects, ErrorParameters};
 use crate::nav::{Site, Strapdown};
 use crate::sim::profile::RotationProfile;
 use crate::sim::scheme::{Axis, Rotate, Step};
-use crate::sim::{simulate, Noise, Scheme, SimConfig};
+use crate::sim::{simulate, Scheme};
 
 /// Rest before the probe's turn, s.
 const LEAD_IN_S: f64 = 2.0;
@@ -117,30 +117,31 @@ fn probe_scheme(rotate: Rotate, dwell_s: f64) -> Scheme {
     }
 }
 
+/// How long the table takes for `rotate`, s.
+fn turn_duration(rotate: Rotate) -> f64 {
+    RotationProfile::new(
+        rotate.angle_deg.to_radians(),
+        rotate.rate_dps.to_radians(),
+        rotate.accel_dps2.to_radians(),
+    )
+    .duration()
+}
+
 fn predict(
     ctx: &ProbeContext,
     expl: &Explanation,
     rotate: Rotate,
 ) -> Result<Prediction, DiagnoseError> {
-    let cfg = SimConfig {
-        site: ctx.site,
-        sample_rate_hz: ctx.sample_rate_hz,
-        scheme: probe_scheme(rotate, ctx.dwell_s),
-        params: expl.params,
-        effects: expl.effects,
-        noise: Noise::default(),
-        initial_attitude_error_deg: crate::nav::attitude::dcm_to_rotvec(&ctx.c_b_n_start)
-            .map(f64::to_degrees)
-            .into(),
-        seed: 0,
-    };
+    let cfg = super::gap::noise_free_run(
+        ctx.site,
+        ctx.sample_rate_hz,
+        probe_scheme(rotate, ctx.dwell_s),
+        expl.params,
+        expl.effects,
+        &ctx.c_b_n_start,
+    );
     let dt = 1.0 / ctx.sample_rate_hz;
-    let turn_s = RotationProfile::new(
-        rotate.angle_deg.to_radians(),
-        rotate.rate_dps.to_radians(),
-        rotate.accel_dps2.to_radians(),
-    )
-    .duration();
+    let turn_s = turn_duration(rotate);
     let k_turn = (LEAD_IN_S / dt).round() as usize;
     let k_rest = ((LEAD_IN_S + turn_s) / dt).round() as usize;
     let comp = ctx.compensation.compensator();
@@ -183,13 +184,7 @@ fn separation(
     rotate: Rotate,
 ) -> Result<f64, DiagnoseError> {
     let (pa, pb) = (predict(ctx, a, rotate)?, predict(ctx, b, rotate)?);
-    let turn_s = RotationProfile::new(
-        rotate.angle_deg.to_radians(),
-        rotate.rate_dps.to_radians(),
-        rotate.accel_dps2.to_radians(),
-    )
-    .duration();
-    let s_step = velocity_sigma(ctx, turn_s);
+    let s_step = velocity_sigma(ctx, turn_duration(rotate));
     let s_drift = velocity_sigma(ctx, ctx.dwell_s);
     let d_step = (pa.step - pb.step).component_div(&s_step);
     let d_drift = (pa.drift - pb.drift).component_div(&s_drift);

@@ -684,18 +684,7 @@ impl Store {
         let fence = &claim.fence;
         let report_json = serde_json::to_string(report)?;
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
-        let updated = sqlx::query(
-            "UPDATE jobs SET state = 'succeeded', progress = 1, stage = 'done', finished_at = ?,
-                    lease_owner = NULL, lease_expires_at = NULL
-             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
-        )
-        .bind(now)
-        .bind(&fence.job_id)
-        .bind(fence.attempt)
-        .bind(&fence.owner)
-        .execute(&mut *tx)
-        .await?;
-        if updated.rows_affected() != 1 {
+        if !mark_succeeded(&mut tx, fence, now).await? {
             tx.rollback().await?;
             return Ok(false);
         }
@@ -724,18 +713,7 @@ impl Store {
         let fence = &claim.fence;
         let result_json = serde_json::to_string(result)?;
         let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
-        let updated = sqlx::query(
-            "UPDATE jobs SET state = 'succeeded', progress = 1, stage = 'done', finished_at = ?,
-                    lease_owner = NULL, lease_expires_at = NULL
-             WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
-        )
-        .bind(now)
-        .bind(&fence.job_id)
-        .bind(fence.attempt)
-        .bind(&fence.owner)
-        .execute(&mut *tx)
-        .await?;
-        if updated.rows_affected() != 1 {
+        if !mark_succeeded(&mut tx, fence, now).await? {
             tx.rollback().await?;
             return Ok(false);
         }
@@ -942,32 +920,18 @@ impl Store {
         since: i64,
         last: Option<i64>,
     ) -> Result<Vec<ParamSpread>, StoreError> {
-        let mut blobs: Vec<Vec<u8>> = match last {
-            Some(n) => {
-                sqlx::query_scalar(
-                    "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
-                     ORDER BY run_time DESC, run_id DESC LIMIT ?",
-                )
-                .bind(serial)
-                .bind(since)
-                .bind(n)
-                .fetch_all(&self.read)
-                .await?
-            }
-            None => {
-                sqlx::query_scalar(
-                    "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
-                     ORDER BY run_time, run_id",
-                )
-                .bind(serial)
-                .bind(since)
-                .fetch_all(&self.read)
-                .await?
-            }
-        };
-        if last.is_some() {
-            blobs.reverse();
-        }
+        // Newest first so that LIMIT keeps the `last` most recent (a
+        // negative LIMIT is none in SQLite), then back to time order.
+        let mut blobs: Vec<Vec<u8>> = sqlx::query_scalar(
+            "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
+             ORDER BY run_time DESC, run_id DESC LIMIT ?",
+        )
+        .bind(serial)
+        .bind(since)
+        .bind(last.unwrap_or(-1))
+        .fetch_all(&self.read)
+        .await?;
+        blobs.reverse();
         let mut acc = SpreadAccumulator::default();
         for b in &blobs {
             acc.push(b);
@@ -1012,6 +976,27 @@ impl Store {
         tx.commit().await?;
         Ok(())
     }
+}
+
+/// Marks the fenced job succeeded inside the caller's write transaction;
+/// false when the lease no longer holds (the caller then writes nothing).
+async fn mark_succeeded(
+    tx: &mut sqlx::Transaction<'_, sqlx::Sqlite>,
+    fence: &Fence,
+    now: i64,
+) -> Result<bool, StoreError> {
+    let updated = sqlx::query(
+        "UPDATE jobs SET state = 'succeeded', progress = 1, stage = 'done', finished_at = ?,
+                lease_owner = NULL, lease_expires_at = NULL
+         WHERE id = ? AND attempts = ? AND lease_owner = ? AND state = 'running'",
+    )
+    .bind(now)
+    .bind(&fence.job_id)
+    .bind(fence.attempt)
+    .bind(&fence.owner)
+    .execute(&mut **tx)
+    .await?;
+    Ok(updated.rows_affected() == 1)
 }
 
 /// A finished calibration as stored: the summary row history and
