@@ -397,8 +397,21 @@ fn parse_triple(s: &str) -> Result<[f64; 3], String> {
     <[f64; 3]>::try_from(v).map_err(|v| format!("expected x,y,z, got {} numbers", v.len()))
 }
 
-fn main() -> anyhow::Result<()> {
-    let cli = Cli::parse();
+/// A failed command prints its message and the chain of causes, one line,
+/// and exits with 1. Not `main() -> Result`: that prints the error's Debug
+/// form, which carries a backtrace whenever `RUST_BACKTRACE` is set, and a
+/// user's mistake (a missing file, a bad flag value) is not a crash.
+fn main() -> std::process::ExitCode {
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Simulate(a) => run_simulate(a),
         Command::Calibrate(a) => run_calibrate(a),

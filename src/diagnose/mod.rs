@@ -655,8 +655,14 @@ pub fn diagnose(
         .collect();
     let params = ErrorParameters::from_canonical(&canonical)
         .map_err(|e| DiagnoseError::Numerical(e.to_string()))?;
-    let recon = reconstruct::reconstruct(source, &scan, run.sample_rate_hz, &params.compensator())?;
     let c_b_n0 = align_start(&ctx, &params.compensator())?;
+    let recon = reconstruct::reconstruct(
+        source,
+        &scan,
+        run.sample_rate_hz,
+        &params.compensator(),
+        &c_b_n0,
+    )?;
     stage(progress, 0.45, "navigating the measured run");
     let nodes = gap::measured_nodes(&ctx, &params, &c_b_n0, &mut |_| {})?;
 

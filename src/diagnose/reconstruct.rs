@@ -3,30 +3,43 @@
 //! (net rotation vector) and its trapezoidal profile (peak rate, angular
 //! acceleration, start time) from the record rates.
 //!
+//! SPEC §4 turns are about a body axis or about a navigation-frame axis.
+//! The net rotation vector is measured in the body frame; carried into n
+//! with the attitude at the turn's start (the aligned start attitude
+//! turned by the turns found so far) it shows which of the two the table
+//! turned about. The frame whose nearest axis lies closer to the measured
+//! one is taken: on a unit a few tenths of a degree off nominal the two
+//! differ by far more than the calibrated gyros' direction error (arcsec),
+//! and a turn simulated about the wrong one would tilt the simulated unit
+//! by the angle between them.
+//!
 //! The ramp of a trapezoidal profile is linear in time and a record's
 //! mean rate is the rate at its mid-time, so the times where the rate
 //! crosses 10 % and 90 % of its peak (interpolated between records) give
 //! the acceleration and the start to a small fraction of a record.
 
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::DiagnoseError;
 use crate::calib::estimate::Prescan;
 use crate::calib::{RecordSource, SegmentKind};
 use crate::model::Compensator;
+use crate::nav::attitude::rotvec_to_dcm;
 use crate::sim::profile::RotationProfile;
-use crate::sim::scheme::{Axis, Rotate, Step};
+use crate::sim::scheme::{Axis, Frame, Rotate, Step};
 use crate::sim::Scheme;
 
 /// Largest angle between a motion's rotation vector and the nearest body
-/// axis for it to be taken as a turn about that axis, deg.
+/// or navigation axis for it to be taken as a turn about that axis, deg.
 const AXIS_TOLERANCE_DEG: f64 = 3.0;
 
 /// One reconstructed rotation.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RotationFound {
-    pub axis: String,
+    /// x, y, z (body) or e, n, u (navigation frame), as in SPEC §4.
+    pub axis: Axis,
+    pub frame: Frame,
     pub angle_deg: f64,
     pub rate_dps: f64,
     pub accel_dps2: f64,
@@ -43,14 +56,34 @@ pub struct Reconstruction {
     pub rotations: Vec<RotationFound>,
 }
 
+/// The axis of `frame` nearest to the unit vector `u` (in that frame), the
+/// angle between them (deg) and the component of `u` along it.
+fn nearest_axis(u: &Vector3<f64>, frame: Frame) -> (Axis, f64, f64) {
+    let i = (0..3)
+        .max_by(|&a, &b| u[a].abs().total_cmp(&u[b].abs()))
+        .unwrap_or(0);
+    let axis = match (frame, i) {
+        (Frame::Body, 0) => Axis::X,
+        (Frame::Body, 1) => Axis::Y,
+        (Frame::Body, _) => Axis::Z,
+        (Frame::Nav, 0) => Axis::E,
+        (Frame::Nav, 1) => Axis::N,
+        (Frame::Nav, _) => Axis::U,
+    };
+    let off = u[i].abs().clamp(0.0, 1.0).acos().to_degrees();
+    (axis, off, u[i])
+}
+
 /// Reconstructs the scheme with one streaming pass over the records,
 /// compensated with `comp` (the calibration) so that angles and rates are
-/// the table's, not the gyros' raw readings.
+/// the table's, not the gyros' raw readings. `c_b_n0` is the aligned
+/// start attitude, which places navigation-frame turns.
 pub fn reconstruct(
     source: &dyn RecordSource,
     scan: &Prescan,
     sample_rate_hz: f64,
     comp: &Compensator,
+    c_b_n0: &Matrix3<f64>,
 ) -> Result<Reconstruction, DiagnoseError> {
     let dt = 1.0 / sample_rate_hz;
     let motions: Vec<usize> = scan
@@ -83,6 +116,7 @@ pub fn reconstruct(
     }
 
     let mut rotations = Vec::new();
+    let mut c_b_n = *c_b_n0;
     for (k, &si) in motions.iter().enumerate() {
         let seg = &scan.segments[si];
         let earth_b = match si.checked_sub(1).map(|i| &scan.segments[i]) {
@@ -98,25 +132,38 @@ pub fn reconstruct(
                 angle.to_degrees()
             )));
         }
-        let (axis_i, axis) = (0..3)
-            .map(|i| (i, [Axis::X, Axis::Y, Axis::Z][i]))
-            .max_by(|a, b| rv[a.0].abs().total_cmp(&rv[b.0].abs()))
-            .unwrap_or((0, Axis::X));
-        let off_axis = (rv[axis_i].abs() / angle)
-            .clamp(-1.0, 1.0)
-            .acos()
-            .to_degrees();
+        let u_b = rv / angle;
+        let u_n = c_b_n * u_b;
+        let body = nearest_axis(&u_b, Frame::Body);
+        let nav = nearest_axis(&u_n, Frame::Nav);
+        // Ties (a unit exactly at nominal) go to the body axis, SPEC's default.
+        let (frame, (axis, off_axis, along)) = if nav.1 < body.1 {
+            (Frame::Nav, nav)
+        } else {
+            (Frame::Body, body)
+        };
         if off_axis > AXIS_TOLERANCE_DEG {
             return Err(DiagnoseError::Scheme(format!(
-                "the motion at t = {:.1} s turns about [{:.3}, {:.3}, {:.3}] (body), {:.1} deg from any body axis: only turns about body axes can be reconstructed",
+                "the motion at t = {:.1} s turns about [{:.3}, {:.3}, {:.3}] (body), [{:.3}, {:.3}, {:.3}] (navigation frame), {:.1} deg from any body axis and {:.1} deg from any navigation axis: only turns about one of these (SPEC §4) can be reconstructed",
                 seg.t_start - scan.t_begin,
-                rv.x / angle,
-                rv.y / angle,
-                rv.z / angle,
-                off_axis
+                u_b.x,
+                u_b.y,
+                u_b.z,
+                u_n.x,
+                u_n.y,
+                u_n.z,
+                body.1,
+                nav.1
             )));
         }
-        let signed = rv[axis_i];
+        let signed = angle * along;
+        // The attitude after the turn, as the simulator will turn it.
+        let own = Vector3::from(axis.unit_vector());
+        let axis_b = match frame {
+            Frame::Body => own,
+            Frame::Nav => c_b_n.transpose() * own,
+        };
+        c_b_n *= rotvec_to_dcm(&(axis_b * signed));
         let series = &rates[k];
         let peak = series.iter().map(|x| x.1).fold(0.0, f64::max);
         let crossing = |level: f64| -> Option<f64> {
@@ -137,7 +184,8 @@ pub fn reconstruct(
         let accel = 0.8 * peak / (t90 - t10);
         let t_start = t10 - 0.1 * peak / accel - scan.t_begin;
         rotations.push(RotationFound {
-            axis: format!("{axis:?}").to_lowercase(),
+            axis,
+            frame,
             angle_deg: signed.to_degrees(),
             rate_dps: peak.to_degrees(),
             accel_dps2: accel.to_degrees(),
@@ -153,15 +201,11 @@ pub fn reconstruct(
             dwell_s: (r.t_start - t).max(0.0),
         });
         let rotate = Rotate {
-            axis: match r.axis.as_str() {
-                "x" => Axis::X,
-                "y" => Axis::Y,
-                _ => Axis::Z,
-            },
+            axis: r.axis,
             angle_deg: r.angle_deg,
             rate_dps: r.rate_dps,
             accel_dps2: r.accel_dps2,
-            frame: None,
+            frame: Some(r.frame),
         };
         let d = RotationProfile::new(
             r.angle_deg.to_radians(),

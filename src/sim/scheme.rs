@@ -14,6 +14,17 @@ pub enum Axis {
     U,
 }
 
+impl Axis {
+    /// Unit vector of the axis in its own frame.
+    pub fn unit_vector(self) -> [f64; 3] {
+        match self {
+            Axis::X | Axis::E => [1.0, 0.0, 0.0],
+            Axis::Y | Axis::N => [0.0, 1.0, 0.0],
+            Axis::Z | Axis::U => [0.0, 0.0, 1.0],
+        }
+    }
+}
+
 /// Which frame a rotation axis belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "lowercase")]
@@ -61,11 +72,7 @@ impl Rotate {
 
     /// Unit vector of the axis in its own frame.
     pub fn axis_vector(&self) -> [f64; 3] {
-        match self.axis {
-            Axis::X | Axis::E => [1.0, 0.0, 0.0],
-            Axis::Y | Axis::N => [0.0, 1.0, 0.0],
-            Axis::Z | Axis::U => [0.0, 0.0, 1.0],
-        }
+        self.axis.unit_vector()
     }
 }
 

@@ -1,0 +1,99 @@
+//! A table that turns the unit about navigation-frame axes (SPEC §4,
+//! `"frame": "nav"`), with the unit mounted 10° off nominal heading: its
+//! turns are 10° from any body axis, so the scheme is reconstructed in n.
+//! A clean run names nothing; a delay is named and fitted.
+
+mod diagnosis_support;
+
+use diagnosis_support::*;
+use sinscal::model::Effects;
+use sinscal::sim::scheme::{Axis, Frame, Rotate, Step};
+use sinscal::sim::{Scheme, SimConfig};
+
+/// The paper's nine-plus-nine pattern, turned about e, n and u.
+fn nav_turns(dwell_s: f64) -> Scheme {
+    let turns = [
+        (Axis::N, 90.0),
+        (Axis::N, 180.0),
+        (Axis::N, 180.0),
+        (Axis::U, 90.0),
+        (Axis::U, 180.0),
+        (Axis::U, 180.0),
+        (Axis::E, 90.0),
+        (Axis::E, 180.0),
+        (Axis::E, 180.0),
+        (Axis::E, 90.0),
+        (Axis::E, 90.0),
+        (Axis::E, 90.0),
+        (Axis::N, 90.0),
+        (Axis::N, 90.0),
+        (Axis::N, 90.0),
+        (Axis::U, 90.0),
+        (Axis::U, 90.0),
+        (Axis::U, 90.0),
+    ];
+    let mut steps = vec![Step::Dwell { dwell_s }];
+    for (axis, angle_deg) in turns {
+        steps.push(Step::Rotate {
+            rotate: Rotate {
+                axis,
+                angle_deg,
+                rate_dps: 10.0,
+                accel_dps2: 20.0,
+                frame: Some(Frame::Nav),
+            },
+        });
+        steps.push(Step::Dwell { dwell_s });
+    }
+    Scheme {
+        name: "nav-turns-9+9".into(),
+        steps,
+    }
+}
+
+fn off_heading(effects: Effects, seed: u64) -> SimConfig {
+    SimConfig {
+        initial_attitude_error_deg: [0.3, -0.2, 10.0],
+        ..config(nav_turns(300.0), effects, seed)
+    }
+}
+
+fn assert_reconstructed_in_n(rep: &sinscal::diagnose::DiagnoseReport, cfg: &SimConfig) {
+    let truth: Vec<(Axis, f64)> = cfg
+        .scheme
+        .steps
+        .iter()
+        .filter_map(|s| match s {
+            Step::Rotate { rotate } => Some((rotate.axis, rotate.angle_deg)),
+            Step::Dwell { .. } => None,
+        })
+        .collect();
+    let found = &rep.scheme.rotations;
+    assert_eq!(found.len(), truth.len());
+    for (f, (axis, angle)) in found.iter().zip(truth) {
+        assert_eq!((f.axis, f.frame), (axis, Frame::Nav), "{f:?}");
+        assert!((f.angle_deg - angle).abs() < 0.05, "{f:?}");
+        assert!(f.off_axis_deg < 0.1, "{f:?}");
+    }
+}
+
+#[test]
+fn clean_run_on_nav_turns_names_nothing() {
+    let cfg = off_heading(Effects::none(), 21);
+    let rep = run(&cfg);
+    assert_reconstructed_in_n(&rep, &cfg);
+    assert_eq!(rep.verdict, "no significant effect");
+    assert!(rep.gap_rms_before < 1.2 * rep.noise_floor_rms);
+}
+
+#[test]
+fn delay_on_nav_turns_is_named() {
+    let effects = Effects {
+        accel_delay: Some(2.0),
+        ..Effects::none()
+    };
+    let cfg = off_heading(effects, 22);
+    let rep = run(&cfg);
+    assert_reconstructed_in_n(&rep, &cfg);
+    assert_found(&rep, &cfg, &["accel_delay"]);
+}
