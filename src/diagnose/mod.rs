@@ -31,7 +31,7 @@ pub mod separate;
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 
-use nalgebra::{Vector3, Vector6};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::calib::estimate::{align_start, prescan, PassContext, MIN_ARW, MIN_VRW};
@@ -70,9 +70,6 @@ pub struct DiagnoseOptions {
     /// The gap is significant when its χ² exceeds its expectation under
     /// noise by this many σ of χ².
     pub significance_sigma: f64,
-    /// Two candidates whose fitted gap signatures correlate above this
-    /// cannot be told apart on the run's scheme.
-    pub collinear_cos: f64,
     /// Most effects added.
     pub max_effects: usize,
     /// Most points of each series in the report.
@@ -88,7 +85,6 @@ impl Default for DiagnoseOptions {
             },
             bic_threshold: 10.0,
             significance_sigma: 3.0,
-            collinear_cos: 0.95,
             max_effects: 4,
             series_points: 1000,
         }
@@ -403,21 +399,6 @@ fn explanation(
         params: params.compose(&delta),
         effects,
     }
-}
-
-/// Weighted inner product of two residual sequences.
-fn inner(fit: &GapFit, a: &[Vector6<f64>], b: &[Vector6<f64>]) -> f64 {
-    a.iter()
-        .zip(b)
-        .zip(fit.residual_cov.iter())
-        .map(|((x, y), c)| {
-            // Weight by the noise alone's residual variance (diagonal):
-            // a scale-free comparison of two signatures.
-            (0..6)
-                .map(|i| x[i] * y[i] / c[(i, i)].max(f64::MIN_POSITIVE))
-                .sum::<f64>()
-        })
-        .sum()
 }
 
 /// What each stretch between nodes is: a piece of dwell d or the rotation
@@ -804,32 +785,27 @@ pub fn diagnose(
             steps.push(step);
             break;
         };
-        // Rivals: candidates nearly as good whose explained gap points the
-        // same way as the best's.
+        // Rivals: candidates of another effect that are credible on their
+        // own and that the data does not reject in favour of the best. A
+        // rival is rejected when, fitted on top of it, the best's columns
+        // would still earn a name (the encompassing test for non-nested
+        // models); otherwise the rival explains all the best explains and
+        // the scheme cannot tell them apart, whichever scores higher.
         let (best_c, best_fit) = &fits[bi];
-        let explained = |f: &GapFit| -> Vec<Vector6<f64>> {
-            current
-                .residual
-                .iter()
-                .zip(f.residual.iter())
-                .map(|(a, b)| a - b)
-                .collect()
-        };
-        let e_best = explained(best_fit);
-        let n_best = inner(&current, &e_best, &e_best).sqrt();
-        let mut rivals: Vec<usize> = Vec::new();
+        let k_best = best.n_params as f64;
+        let mut rivals: Vec<(usize, f64)> = Vec::new();
         for (oi, other) in scores.iter().enumerate() {
             if oi == bi || other.delta_bic < opts.bic_threshold || other.effect == best.effect {
                 continue;
             }
-            if best.delta_bic - other.delta_bic > opts.bic_threshold {
-                continue;
-            }
-            let e_o = explained(&fits[oi].1);
-            let cos = inner(&current, &e_best, &e_o)
-                / (n_best * inner(&current, &e_o, &e_o).sqrt()).max(f64::MIN_POSITIVE);
-            if cos > opts.collinear_cos {
-                rivals.push(oi);
+            let (oc, other_fit) = &fits[oi];
+            let both: Vec<usize> = named.iter().copied().chain([*oc, *best_c]).collect();
+            let union = problem.fit(&cols_of(&both))?;
+            let dispersion = (union.chi2 / union.dof).max(1.0);
+            let best_beyond =
+                (other_fit.objective - union.objective) / dispersion - k_best * n_obs.ln();
+            if best_beyond <= opts.bic_threshold {
+                rivals.push((oi, best_beyond));
             }
         }
         if !rivals.is_empty() {
@@ -839,7 +815,7 @@ pub fn diagnose(
             let with = |c: usize| -> Vec<usize> { named.iter().copied().chain([c]).collect() };
             let best_expl = explanation(&lib, &params, &prior, best_fit, &with(*best_c));
             let mut hints = Vec::new();
-            for &oi in &rivals {
+            for &(oi, best_beyond) in &rivals {
                 let (rc, rival_fit) = &fits[oi];
                 let rival = &scores[oi];
                 let rival_expl = explanation(&lib, &params, &prior, rival_fit, &with(*rc));
@@ -849,24 +825,29 @@ pub fn diagnose(
                     &best_expl,
                     &rival_expl,
                 )?;
+                let why = format!(
+                    "{} vs {} (dBIC {:.1} vs {:.1}; fitted on top of {}, {} scores dBIC {:.1})",
+                    best.effect,
+                    rival.effect,
+                    best.delta_bic,
+                    rival.delta_bic,
+                    rival.effect,
+                    best.effect,
+                    best_beyond
+                );
                 hints.push(match &turn {
-                    Some(t) => format!(
-                        "{} vs {}: add a {}",
-                        best.effect,
-                        rival.effect,
-                        t.describe()
-                    ),
+                    Some(t) => format!("{why}: add a {}", t.describe()),
                     None => format!(
-                        "{} vs {}: no single body-axis turn parts them; {}",
-                        best.effect,
-                        rival.effect,
+                        "{why}: no single body-axis turn parts them; {}",
                         candidates::separating_motion(&best.effect, &rival.effect)
                     ),
                 });
                 step.separating_turns.extend(turn);
             }
-            let rival_effects: Vec<String> =
-                rivals.iter().map(|&oi| scores[oi].effect.clone()).collect();
+            let rival_effects: Vec<String> = rivals
+                .iter()
+                .map(|&(oi, _)| scores[oi].effect.clone())
+                .collect();
             verdict = format!(
                 "ambiguous: {} and {} cannot be told apart on this scheme ({})",
                 best.effect,
