@@ -8,7 +8,6 @@ mod diagnosis_support;
 use diagnosis_support::*;
 use sinscal::model::effects::{BiasDrift, LeverArms};
 use sinscal::model::Effects;
-use sinscal::sim::Scheme;
 
 #[test]
 fn accel_delay_is_named() {
@@ -56,26 +55,6 @@ fn bias_drift_is_named() {
     };
     let cfg = config(nine_plus_nine(600.0), effects, 6);
     assert_found(&run(&cfg), &cfg, &["bias_drift"]);
-}
-
-/// A scheme that turns every axis both ways: the paper's ten positions,
-/// then each axis a quarter turn back, so a scale-factor asymmetry
-/// differs from a scale factor.
-fn both_ways(dwell_s: f64) -> Scheme {
-    let mut s = Scheme::builtin("ten-position", dwell_s).unwrap();
-    let text = format!(
-        r#"[{{"rotate": {{"axis": "x", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "y", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "z", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "x", "angle_deg": -180}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "y", "angle_deg": -180}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "z", "angle_deg": -180}}}}, {{"dwell_s": {d}}}]"#,
-        d = dwell_s
-    );
-    let more: Vec<sinscal::sim::scheme::Step> = serde_json::from_str(&text).unwrap();
-    s.steps.extend(more);
-    s.name = "ten-position-both-ways".into();
-    s
 }
 
 #[test]

@@ -39,9 +39,15 @@ fn p(name: &str, unit: &str, size: f64) -> EffectParam {
 /// Every candidate, in SPEC §3 order.
 ///
 /// - `accel_lever_arm`: each accelerometer displaced along its own axis
-///   (3 parameters), or across its axes (`accel_lever_arm_cross`, 6). An accelerometer displaced across its axis senses
-///   the tangential acceleration of a turn instead; the along-axis form is
-///   the size effect of a triad whose sensors sit on their own axes.
+///   (3 parameters), or across its axes (`accel_lever_arm_cross`, 6). An
+///   accelerometer displaced across its axis senses the tangential
+///   acceleration of a turn instead; the along-axis form is the size
+///   effect of a triad whose sensors sit on their own axes. On velocity
+///   steps between dwells the along-axis arms l are the cross-axis arms
+///   of the same triad seen from a reference point moved by l, so the
+///   cross form contains the along-axis one and reports arms with the
+///   along-axis components at zero; the score's charge for its three
+///   extra parameters lets the along-axis form win when it suffices.
 /// - `gyro_g_sensitivity`: the full 3 × 3 G (9).
 /// - `accel_delay`: τ (1).
 /// - `bias_drift`: 3 gyro + 3 accelerometer drift rates (6).

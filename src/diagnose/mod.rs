@@ -110,7 +110,8 @@ pub struct CandidateScore {
     pub n_params: usize,
     /// Drop of the weighted residual cost when the candidate is added.
     pub delta_chi2: f64,
-    /// χ²/dof left with the candidate, at least 1.
+    /// The scale Δχ² is judged against: χ²/dof left by the step's
+    /// best-fitting candidate, at least 1 (the same for every candidate).
     pub dispersion: f64,
     /// Δχ²/dispersion − k ln n: positive favours the candidate.
     pub delta_bic: f64,
@@ -699,14 +700,26 @@ pub fn diagnose(
             }
             let mut with = named.clone();
             with.push(c);
-            let fit = problem.fit(&cols_of(&with))?;
+            fits.push((c, problem.fit(&cols_of(&with))?));
+        }
+        // Quasi-likelihood: when even the best-fitting candidate leaves the
+        // gap far above the noise, that misfit, not the noise, is the scale
+        // against which every improvement is judged, so a candidate that
+        // explains a sliver of an unexplained gap is not named. One scale
+        // for all candidates: each its own would rank two that explain
+        // the same gap by the last digits of their residuals (lever arms
+        // along the accelerometers' own axes and the cross-axis arms that
+        // give the same velocity steps once the reference point is moved
+        // differ by a few units of χ² on an improvement of 10⁴).
+        let dispersion = fits
+            .iter()
+            .map(|(_, f)| f.chi2 / f.dof)
+            .fold(f64::INFINITY, f64::min)
+            .max(1.0);
+        for (c, fit) in &fits {
+            let cand = &lib.candidates[*c];
             let k = cand.params.len() as f64;
             let d_chi2 = current.objective - fit.objective;
-            // Quasi-likelihood: when the candidate leaves the gap far above
-            // the noise, the residual misfit, not the noise, is the scale
-            // against which its improvement is judged, so a candidate that
-            // explains a sliver of an unexplained gap is not named.
-            let dispersion = (fit.chi2 / fit.dof).max(1.0);
             scores.push(CandidateScore {
                 effect: cand.effect.to_string(),
                 candidate: cand.name.to_string(),
@@ -715,9 +728,8 @@ pub fn diagnose(
                 dispersion,
                 delta_bic: d_chi2 / dispersion - k * n_obs.ln(),
                 probability: 0.0,
-                params: effect_estimates(&lib, &fit, c),
+                params: effect_estimates(&lib, fit, *c),
             });
-            fits.push((c, fit));
         }
         // BIC weights against "no further effect" (ΔBIC = 0).
         let m = scores.iter().map(|s| s.delta_bic).fold(0.0, f64::max);

@@ -40,9 +40,42 @@ pub fn nine_plus_nine(dwell_s: f64) -> Scheme {
     Scheme::builtin("ten-position-9+9", dwell_s).unwrap()
 }
 
+/// A scheme that turns every axis both ways: the paper's ten positions,
+/// then each axis a quarter turn back, so a scale-factor asymmetry
+/// differs from a scale factor.
+pub fn both_ways(dwell_s: f64) -> Scheme {
+    let mut s = Scheme::builtin("ten-position", dwell_s).unwrap();
+    let text = format!(
+        r#"[{{"rotate": {{"axis": "x", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
+            {{"rotate": {{"axis": "y", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
+            {{"rotate": {{"axis": "z", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
+            {{"rotate": {{"axis": "x", "angle_deg": -180}}}}, {{"dwell_s": {d}}},
+            {{"rotate": {{"axis": "y", "angle_deg": -180}}}}, {{"dwell_s": {d}}},
+            {{"rotate": {{"axis": "z", "angle_deg": -180}}}}, {{"dwell_s": {d}}}]"#,
+        d = dwell_s
+    );
+    let more: Vec<sinscal::sim::scheme::Step> = serde_json::from_str(&text).unwrap();
+    s.steps.extend(more);
+    s.name = "ten-position-both-ways".into();
+    s
+}
+
 pub fn run(cfg: &SimConfig) -> DiagnoseReport {
     let t = Instant::now();
-    let rep = diagnose(
+    let rep = run_quiet(cfg);
+    eprintln!(
+        "seed {} effects {:?}: {:.1} s\n{}",
+        cfg.seed,
+        cfg.effects,
+        t.elapsed().as_secs_f64(),
+        rep.summary()
+    );
+    rep
+}
+
+/// Diagnoses a simulated run through the library entry point.
+pub fn run_quiet(cfg: &SimConfig) -> DiagnoseReport {
+    diagnose(
         &SimSource(cfg.clone()),
         &RunInfo {
             site: cfg.site,
@@ -52,15 +85,7 @@ pub fn run(cfg: &SimConfig) -> DiagnoseReport {
         &mut |_| {},
         &AtomicBool::new(false),
     )
-    .unwrap();
-    eprintln!(
-        "seed {} effects {:?}: {:.1} s\n{}",
-        cfg.seed,
-        cfg.effects,
-        t.elapsed().as_secs_f64(),
-        rep.summary()
-    );
-    rep
+    .unwrap()
 }
 
 /// The paper's Table 1 bound for a family, canonical units.
@@ -76,9 +101,35 @@ pub fn bound(g: Group) -> f64 {
     }
 }
 
-/// The workflow's acceptance criteria for a run carrying `truth_effects`.
+/// The workflow's acceptance criteria for a run carrying `cfg.effects`,
+/// `expect` the effects it must name, in order.
 pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
-    assert_eq!(rep.named, expect, "verdict: {}", rep.verdict);
+    let check = acceptance(rep, cfg, expect);
+    for line in &check.notes {
+        eprintln!("{line}");
+    }
+    assert!(check.failed.is_empty(), "{:#?}", check.failed);
+}
+
+/// A diagnosis held against the acceptance criteria.
+pub struct Acceptance {
+    /// What it misses (empty: all met).
+    pub failed: Vec<String>,
+    /// The figures behind the verdict, a line each.
+    pub notes: Vec<String>,
+}
+
+/// The acceptance criteria: the effects named in order, each fitted
+/// parameter within 3σ of its truth, the gap's excess over the floor
+/// shrunk by ≥ 90 % and the gap after within 1.2× the floor, the base
+/// parameters within Table 1.
+pub fn acceptance(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) -> Acceptance {
+    let mut failed = Vec::new();
+    let mut notes = Vec::new();
+    if rep.named != expect {
+        failed.push(format!("named {:?}, verdict: {}", rep.named, rep.verdict));
+        return Acceptance { failed, notes };
+    }
     for (name, cand_name) in expect.iter().zip(&rep.named_candidates) {
         let cand = sinscal::diagnose::candidates::library()
             .into_iter()
@@ -88,15 +139,17 @@ pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
         for (p, t) in cand.params.iter().zip(truth) {
             let e = &rep.calibration.effects[&p.name];
             let z = (e.value - t) / e.sigma;
-            eprintln!(
+            notes.push(format!(
                 "{}: fitted {:.5} ± {:.5} {}, truth {t}, {z:+.2} sigma",
                 p.name, e.value, e.sigma, e.unit
-            );
-            assert!(z.abs() < 3.0, "{} off by {z:.2} sigma", p.name);
+            ));
+            if z.abs() >= 3.0 {
+                failed.push(format!("{} off by {z:.2} sigma", p.name));
+            }
         }
     }
     let excess_shrink = 1.0 - rep.gap_excess_after / rep.gap_excess_before;
-    eprintln!(
+    notes.push(format!(
         "gap RMS {:.3e} -> {:.3e} m/s (floor {:.3e}); excess {:.3e} -> {:.3e} ({:.1}% shrink); raw shrink {:.1}%",
         rep.gap_rms_before,
         rep.gap_rms_after,
@@ -105,19 +158,21 @@ pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
         rep.gap_excess_after,
         100.0 * excess_shrink,
         100.0 * (1.0 - rep.gap_rms_after / rep.gap_rms_before)
-    );
-    assert!(
-        excess_shrink >= 0.9,
-        "gap excess shrank by only {:.1}%",
-        100.0 * excess_shrink
-    );
-    assert!(
-        rep.gap_rms_after <= 1.2 * rep.noise_floor_rms,
-        "gap after {:.3e} above 1.2x the floor {:.3e}",
-        rep.gap_rms_after,
-        rep.noise_floor_rms
-    );
-    assert_base_within_table1(rep, &cfg.params);
+    ));
+    if excess_shrink < 0.9 {
+        failed.push(format!(
+            "gap excess shrank by only {:.1}%",
+            100.0 * excess_shrink
+        ));
+    }
+    if rep.gap_rms_after > 1.2 * rep.noise_floor_rms {
+        failed.push(format!(
+            "gap after {:.3e} above 1.2x the floor {:.3e}",
+            rep.gap_rms_after, rep.noise_floor_rms
+        ));
+    }
+    failed.extend(base_outside_table1(rep, &cfg.params));
+    Acceptance { failed, notes }
 }
 
 /// Every base parameter within its Table 1 bound of the truth, with the
@@ -125,20 +180,11 @@ pub fn assert_found(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) {
 /// accepted while within 3.5 of its own σ. With bias drift in the model
 /// the bias at t = 0 is an intercept of a line over the run and its σ
 /// (≈ 0.0005 deg/h here) makes 0.00075 deg/h a 1.5σ bound.
-pub fn assert_base_within_table1(rep: &DiagnoseReport, truth: &ErrorParameters) {
+pub fn base_outside_table1(rep: &DiagnoseReport, truth: &ErrorParameters) -> Vec<String> {
     let mut bad = Vec::new();
     for (i, p) in PARAMETERS.iter().enumerate() {
         let est = &rep.calibration.parameters[p.name];
         let err = est.value - truth.canonical(i);
-        if err.abs() >= bound(p.group) {
-            eprintln!(
-                "{} error {err:.6} {} ({:.2} sigma) beyond the Table 1 bound {}",
-                p.name,
-                p.unit,
-                err / est.sigma,
-                bound(p.group)
-            );
-        }
         let statistical = p.group == Group::GyroBias && err.abs() < 3.5 * est.sigma;
         if err.abs() >= bound(p.group) && !statistical {
             bad.push(format!(
@@ -150,5 +196,5 @@ pub fn assert_base_within_table1(rep: &DiagnoseReport, truth: &ErrorParameters) 
             ));
         }
     }
-    assert!(bad.is_empty(), "{bad:#?}");
+    bad
 }
