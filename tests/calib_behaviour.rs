@@ -50,7 +50,7 @@ fn progress_rises_to_one_and_cancel_stops_the_run() {
         "progress went back"
     );
     assert_eq!(fractions.last().copied(), Some(1.0));
-    assert!(res.convergence.t.len() <= 2000 && !res.convergence.t.is_empty());
+    assert!(res.convergence.t.len() <= 500 && !res.convergence.t.is_empty());
     assert_eq!(res.convergence.value[0].len(), 24);
 
     // Cancelled from the progress callback, as the server's workers do.

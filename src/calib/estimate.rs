@@ -61,7 +61,8 @@ pub struct EstimateOptions {
     pub prior_scale: f64,
     /// Run the least-squares cross-check after the filter.
     pub cross_check: bool,
-    /// Most points in the convergence history.
+    /// Most points in the convergence history. 500 over a 3 h run is a
+    /// point every 23 s, finer than any dwell, and wider than a plot.
     pub history_points: usize,
 }
 
@@ -78,7 +79,7 @@ impl Default for EstimateOptions {
             noise: None,
             prior_scale: 4.0,
             cross_check: true,
-            history_points: 2000,
+            history_points: 500,
         }
     }
 }
@@ -429,7 +430,11 @@ fn kf_pass(
     );
 
     let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
-    let every = n_windows.div_ceil(ctx.opts.history_points.max(1)).max(1);
+    // One slot kept for the last window, so the history never exceeds
+    // `history_points`.
+    let every = n_windows
+        .div_ceil(ctx.opts.history_points.saturating_sub(1).max(1))
+        .max(1);
     let mut history = Convergence {
         names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
         ..Default::default()
@@ -455,12 +460,12 @@ fn kf_pass(
             history.t.push(w.t_end);
             history.value.push(
                 (0..N_PARAMS)
-                    .map(|i| (params.si[i] + d[i]) / PARAMETERS[i].si_per_unit)
+                    .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
                     .collect(),
             );
             history.sigma.push(
                 (0..N_PARAMS)
-                    .map(|i| s[i] / PARAMETERS[i].si_per_unit)
+                    .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
                     .collect(),
             );
         }

@@ -22,9 +22,11 @@ pub struct Convergence {
     pub names: Vec<String>,
     /// Times, s.
     pub t: Vec<f64>,
-    /// value[i][j]: parameter j at time t[i], canonical units.
-    pub value: Vec<Vec<f64>>,
-    pub sigma: Vec<Vec<f64>>,
+    /// value[i][j]: parameter j at time t[i], canonical units. Single
+    /// precision (7 digits): the history is for plotting, the final
+    /// values are in `parameters`, and it is most of a stored result.
+    pub value: Vec<Vec<f32>>,
+    pub sigma: Vec<Vec<f32>>,
 }
 
 /// The post-fit velocity residual of one dwell.
