@@ -5,7 +5,8 @@
 //! asymmetry; paper truth, navigation-grade noise). Per case: how often
 //! the acceptance criteria all hold, how often the right effect is named
 //! first, and the gap figures. Run: `cargo bench --bench diagnose_sweep`
-//! (`-- --seeds N`, default 5).
+//! (`-- --seeds N`, default 5; `-- --arw A` sets the gyro angle random
+//! walk in deg/√h, default the tests' 0.0003).
 
 #[path = "../tests/diagnosis_support/mod.rs"]
 mod diagnosis_support;
@@ -76,12 +77,12 @@ fn cases() -> [Case; 5] {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let seeds: u64 = args
-        .iter()
-        .position(|a| a == "--seeds")
-        .and_then(|i| args.get(i + 1))
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(5);
+    let flag = |name: &str| -> Option<f64> {
+        let i = args.iter().position(|a| a == name)?;
+        args.get(i + 1)?.parse().ok()
+    };
+    let seeds = flag("--seeds").map_or(5, |n| n as u64);
+    let arw = flag("--arw");
     println!(
         "| effect | size | all criteria | named first | raw shrink (min) | excess shrink (min) | after / floor (max) |"
     );
@@ -98,7 +99,10 @@ fn main() {
             } else {
                 nine_plus_nine(600.0)
             };
-            let cfg = config(scheme, effects, seed);
+            let mut cfg = config(scheme, effects, seed);
+            if let Some(arw) = arw {
+                cfg.noise.gyro_arw_deg_rt_h = arw;
+            }
             let rep = run_quiet(&cfg);
             let check = acceptance(&rep, &cfg, &[effect]);
             if check.failed.is_empty() {
