@@ -108,8 +108,8 @@ impl Prescan {
 /// Lowest noise densities used, so that a noise-free run still gives a
 /// well-posed filter: 1e-5 deg/√h and 0.1 µg/√Hz (thirty and fifty times
 /// below the quietest navigation-grade units).
-pub(crate) const MIN_ARW: f64 = 1e-5 * DEG_PER_RT_H;
-pub(crate) const MIN_VRW: f64 = 0.1 * UG_PER_RT_HZ;
+const MIN_ARW: f64 = 1e-5 * DEG_PER_RT_H;
+const MIN_VRW: f64 = 0.1 * UG_PER_RT_HZ;
 
 /// One streaming read: segmentation and noise from first differences of
 /// records in still blocks (at rest the true increments are constant, so
@@ -515,6 +515,51 @@ pub(crate) fn initial_navigation_covariance(ctx: &PassContext) -> Matrix6<f64> {
     p0
 }
 
+impl<'a> PassContext<'a> {
+    /// The passes' context over a scanned run: the noise densities from
+    /// the options, else as the dwells measured them, floored.
+    pub fn new(
+        source: &'a dyn RecordSource,
+        run: &'a RunInfo,
+        opts: &'a EstimateOptions,
+        scan: &'a Prescan,
+        cancel: &'a AtomicBool,
+    ) -> Self {
+        let (arw, vrw) = match opts.noise {
+            Some(n) => (
+                n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
+                n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
+            ),
+            None => (scan.arw, scan.vrw),
+        };
+        PassContext {
+            source,
+            run,
+            opts,
+            scan,
+            arw: arw.max(MIN_ARW),
+            vrw: vrw.max(MIN_VRW),
+            cancel,
+        }
+    }
+}
+
+/// The scan every calibration starts from, after checking the rate.
+pub(crate) fn scan_run(
+    source: &dyn RecordSource,
+    run: &RunInfo,
+    opts: &EstimateOptions,
+    cancel: &AtomicBool,
+) -> Result<Prescan, CalibError> {
+    if !(run.sample_rate_hz.is_finite() && run.sample_rate_hz > 0.0) {
+        return Err(CalibError::Unusable(format!(
+            "sample rate {} Hz",
+            run.sample_rate_hz
+        )));
+    }
+    prescan(source, run, &opts.detect, cancel)
+}
+
 /// Calibrates a run: the one entry point the CLI and the server call.
 pub fn estimate(
     source: &dyn RecordSource,
@@ -523,33 +568,24 @@ pub fn estimate(
     progress: &mut dyn FnMut(Progress),
     cancel: &AtomicBool,
 ) -> Result<CalibrationResult, CalibError> {
-    if !(run.sample_rate_hz.is_finite() && run.sample_rate_hz > 0.0) {
-        return Err(CalibError::Unusable(format!(
-            "sample rate {} Hz",
-            run.sample_rate_hz
-        )));
-    }
     progress(Progress {
         fraction: 0.0,
         stage: "scanning the run".into(),
     });
-    let scan = prescan(source, run, &opts.detect, cancel)?;
-    let (arw, vrw) = match opts.noise {
-        Some(n) => (
-            n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
-            n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
-        ),
-        None => (scan.arw, scan.vrw),
-    };
-    let ctx = PassContext {
-        source,
-        run,
-        opts,
-        scan: &scan,
-        arw: arw.max(MIN_ARW),
-        vrw: vrw.max(MIN_VRW),
-        cancel,
-    };
+    let scan = scan_run(source, run, opts, cancel)?;
+    estimate_scanned(
+        &PassContext::new(source, run, opts, &scan, cancel),
+        progress,
+    )
+}
+
+/// Calibrates a run already scanned (the discrepancy workflow keeps the
+/// scan for its own passes).
+pub(crate) fn estimate_scanned(
+    ctx: &PassContext,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CalibrationResult, CalibError> {
+    let (opts, scan) = (ctx.opts, ctx.scan);
     let mut params = ErrorParameters::zero();
     let max_passes = opts.max_passes.max(1);
     let mut last: Option<Pass> = None;
@@ -571,8 +607,8 @@ pub fn estimate(
             })
         };
         let p = match opts.estimator {
-            EstimatorKind::Kf => kf_pass(&ctx, &params, &mut report)?,
-            EstimatorKind::Lsq => lsq_as_pass(&ctx, &params, &mut report)?,
+            EstimatorKind::Kf => kf_pass(ctx, &params, &mut report)?,
+            EstimatorKind::Lsq => lsq_as_pass(ctx, &params, &mut report)?,
         };
         let mut delta = ErrorParameters::zero();
         delta.si.copy_from_slice(&p.delta);
@@ -600,8 +636,8 @@ pub fn estimate(
         };
         // The other estimator, linearised at this one's answer.
         let other = match opts.estimator {
-            EstimatorKind::Kf => lsq_as_pass(&ctx, &params, &mut report)?,
-            EstimatorKind::Lsq => kf_pass(&ctx, &params, &mut report)?,
+            EstimatorKind::Kf => lsq_as_pass(ctx, &params, &mut report)?,
+            EstimatorKind::Lsq => kf_pass(ctx, &params, &mut report)?,
         };
         let (kf_sigma, lsq_sigma) = match opts.estimator {
             EstimatorKind::Kf => (&last.sigma, &other.sigma),
@@ -663,7 +699,7 @@ pub fn estimate(
         ));
     }
     let (roll, pitch, heading) = euler_from_dcm(&last.c_b_n0);
-    let dwell1 = first_dwell(&scan)?;
+    let dwell1 = first_dwell(scan)?;
     progress(Progress {
         fraction: 1.0,
         stage: "done".into(),

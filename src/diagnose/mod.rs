@@ -34,12 +34,11 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use crate::calib::estimate::{align_start, prescan, PassContext, MIN_ARW, MIN_VRW};
+use crate::calib::estimate::{align_start, estimate_scanned, scan_run, PassContext};
 use crate::calib::{
-    estimate, CalibError, CalibrationResult, EstimateOptions, ParameterEstimate, Progress,
-    RecordSource, RunInfo, SegmentKind,
+    CalibError, CalibrationResult, EstimateOptions, ParameterEstimate, Progress, RecordSource,
+    RunInfo, SegmentKind,
 };
-use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{Effects, ErrorParameters, PARAMETERS};
 use candidates::{library, unit_effect, Candidate};
 use gap::{GapFit, GapProblem, Nodes, SimSetup};
@@ -594,18 +593,18 @@ pub fn diagnose(
     progress: &mut dyn FnMut(Progress),
     cancel: &AtomicBool,
 ) -> Result<DiagnoseReport, DiagnoseError> {
-    let base_cal = estimate(
-        source,
-        run,
-        &opts.estimate,
-        &mut |p| {
-            progress(Progress {
-                fraction: 0.4 * p.fraction,
-                stage: format!("base calibration: {}", p.stage),
-            })
-        },
-        cancel,
-    )?;
+    progress(Progress {
+        fraction: 0.0,
+        stage: "base calibration: scanning the run".into(),
+    });
+    let scan = scan_run(source, run, &opts.estimate, cancel)?;
+    let ctx = PassContext::new(source, run, &opts.estimate, &scan, cancel);
+    let base_cal = estimate_scanned(&ctx, &mut |p| {
+        progress(Progress {
+            fraction: 0.4 * p.fraction,
+            stage: format!("base calibration: {}", p.stage),
+        })
+    })?;
     fn stage(progress: &mut dyn FnMut(Progress), f: f64, s: &str) {
         progress(Progress {
             fraction: f,
@@ -613,23 +612,6 @@ pub fn diagnose(
         })
     }
     stage(progress, 0.4, "reconstructing the scheme");
-    let scan = prescan(source, run, &opts.estimate.detect, cancel)?;
-    let (arw, vrw) = match opts.estimate.noise {
-        Some(n) => (
-            n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
-            n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
-        ),
-        None => (scan.arw, scan.vrw),
-    };
-    let ctx = PassContext {
-        source,
-        run,
-        opts: &opts.estimate,
-        scan: &scan,
-        arw: arw.max(MIN_ARW),
-        vrw: vrw.max(MIN_VRW),
-        cancel,
-    };
     let canonical: BTreeMap<String, f64> = base_cal
         .parameters
         .iter()
