@@ -11,25 +11,13 @@ use sinscal::calib::sources::SimSource;
 use sinscal::calib::{
     estimate, CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo,
 };
+use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 
 fn site() -> Site {
     Site::new(28.2215, 112.9924, 50.0)
-}
-
-/// The paper's Table 1 bound for a family, canonical units.
-fn bound(g: Group) -> f64 {
-    match g {
-        Group::GyroBias => 0.00075,
-        Group::GyroScale => 2.0,
-        Group::GyroMisalign => 1.5,
-        Group::AccelBias => 5.0,
-        Group::AccelScale => 2.0,
-        Group::AccelMisalign => 1.5,
-        Group::AccelQuad => 1.47,
-    }
 }
 
 fn config(
@@ -89,7 +77,7 @@ fn assert_within_table1(res: &CalibrationResult, truth: &ErrorParameters, what: 
     for (i, p) in PARAMETERS.iter().enumerate() {
         let err = res.parameters[p.name].value - truth.canonical(i);
         let sigma = res.parameters[p.name].sigma;
-        if err.abs() < bound(p.group) {
+        if err.abs() < paper_accuracy(p.group) {
             continue;
         }
         let statistical = p.group == Group::GyroBias && err.abs() < 3.5 * sigma;
@@ -97,7 +85,7 @@ fn assert_within_table1(res: &CalibrationResult, truth: &ErrorParameters, what: 
             "{what}: {} error {err:.6} {} beyond the Table 1 bound {} ({:.2}σ)",
             p.name,
             p.unit,
-            bound(p.group),
+            paper_accuracy(p.group),
             err / sigma
         );
         assert!(
@@ -105,7 +93,7 @@ fn assert_within_table1(res: &CalibrationResult, truth: &ErrorParameters, what: 
             "{what}: {} error {err:.6} {} exceeds the Table 1 bound {}",
             p.name,
             p.unit,
-            bound(p.group)
+            paper_accuracy(p.group)
         );
     }
 }

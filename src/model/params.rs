@@ -258,6 +258,21 @@ pub fn paper_magnitude(group: Group) -> f64 {
     }
 }
 
+/// The seed paper's Table 1 accuracy for each family, canonical units
+/// (deg/h, ppm, arcsec, ug, ug/g²): what a calibration of its simulated
+/// runs must come within.
+pub fn paper_accuracy(group: Group) -> f64 {
+    match group {
+        Group::GyroBias => 0.00075,
+        Group::GyroScale => 2.0,
+        Group::GyroMisalign => 1.5,
+        Group::AccelBias => 5.0,
+        Group::AccelScale => 2.0,
+        Group::AccelMisalign => 1.5,
+        Group::AccelQuad => 1.47,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

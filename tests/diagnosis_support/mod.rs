@@ -10,6 +10,7 @@ use sinscal::calib::sources::SimSource;
 use sinscal::calib::RunInfo;
 use sinscal::diagnose::candidates::values_in;
 use sinscal::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
+use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
@@ -86,19 +87,6 @@ pub fn run_quiet(cfg: &SimConfig) -> DiagnoseReport {
         &AtomicBool::new(false),
     )
     .unwrap()
-}
-
-/// The paper's Table 1 bound for a family, canonical units.
-pub fn bound(g: Group) -> f64 {
-    match g {
-        Group::GyroBias => 0.00075,
-        Group::GyroScale => 2.0,
-        Group::GyroMisalign => 1.5,
-        Group::AccelBias => 5.0,
-        Group::AccelScale => 2.0,
-        Group::AccelMisalign => 1.5,
-        Group::AccelQuad => 1.47,
-    }
 }
 
 /// The workflow's acceptance criteria for a run carrying `cfg.effects`,
@@ -186,13 +174,13 @@ pub fn base_outside_table1(rep: &DiagnoseReport, truth: &ErrorParameters) -> Vec
         let est = &rep.calibration.parameters[p.name];
         let err = est.value - truth.canonical(i);
         let statistical = p.group == Group::GyroBias && err.abs() < 3.5 * est.sigma;
-        if err.abs() >= bound(p.group) && !statistical {
+        if err.abs() >= paper_accuracy(p.group) && !statistical {
             bad.push(format!(
                 "{} error {err:.6} {} ({:.2} sigma) beyond {}",
                 p.name,
                 p.unit,
                 err / est.sigma,
-                bound(p.group)
+                paper_accuracy(p.group)
             ));
         }
     }
