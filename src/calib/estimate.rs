@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use super::align;
 use super::filter::{error_dynamics, Innovation, SystematicFilter};
 use super::lsq::lsq_pass;
+use super::model_check::{CheckAccumulator, ModelCheck};
 use super::result::{
     AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, DwellResidual,
     ParameterEstimate,
@@ -251,6 +252,8 @@ struct Pass {
     c_b_n0: Matrix3<f64>,
     history: Convergence,
     dwell_residuals: Vec<DwellResidual>,
+    /// Whether the model explains the pass's zero-velocity residuals.
+    model_check: Option<ModelCheck>,
 }
 
 /// Prior 1-σ of the 24 parameters, SI.
@@ -442,6 +445,7 @@ fn kf_pass(
     let mut dwell_acc: Vec<DwellAccumulator> = (0..ctx.scan.segments.len())
         .map(|_| DwellAccumulator::new(N_PARAMS))
         .collect();
+    let mut check = CheckAccumulator::new(&ctx.scan.segments, N_PARAMS);
 
     walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
         let d0 = dwell_at(&ctx.scan.segments, w.t_start);
@@ -450,6 +454,7 @@ fn kf_pass(
             let innov = kf.update_zero_velocity(&w.nav.v_n)?;
             if let Some(d) = dwell {
                 dwell_acc[d].add(&innov);
+                check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
             }
             let (phi, dv) = kf.take_navigation_errors();
             w.nav.correct(&phi, &dv, &Vector3::zeros());
@@ -490,12 +495,14 @@ fn kf_pass(
             });
         }
     }
+    let model_check = Some(check.finish(&p_hat, &dwell_residuals));
     Ok(Pass {
         delta,
         sigma,
         c_b_n0,
         history,
         dwell_residuals,
+        model_check,
     })
 }
 
@@ -654,6 +661,7 @@ pub(crate) fn estimate_scanned(
         if opts.estimator == EstimatorKind::Lsq {
             last.dwell_residuals = other.dwell_residuals;
             last.history = other.history;
+            last.model_check = other.model_check;
         }
         Some(check)
     } else {
@@ -725,6 +733,7 @@ pub(crate) fn estimate_scanned(
         dwell_residuals: last.dwell_residuals,
         convergence: last.history,
         cross_check,
+        model_check: last.model_check,
     })
 }
 
@@ -741,6 +750,7 @@ fn lsq_as_pass(
         c_b_n0: sol.c_b_n0,
         history: Convergence::default(),
         dwell_residuals: Vec::new(),
+        model_check: None,
     })
 }
 

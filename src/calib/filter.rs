@@ -90,6 +90,9 @@ pub struct Innovation {
     pub y_bar: Vector3<f64>,
     /// Its sensitivity to the scaled parameters (3 × n_p).
     pub m: DMatrix<f64>,
+    /// The bias-free innovation's covariance: ȳ − m p is white with this
+    /// covariance for the true parameters p.
+    pub s: Matrix3<f64>,
 }
 
 /// The navigation part: the bias-free estimate and its covariance.
@@ -245,7 +248,7 @@ impl SystematicFilter {
             let kd = DMatrix::from_column_slice(NAV, 3, k.as_slice());
             self.v -= kd * &m;
         }
-        Ok(Innovation { y_bar, m })
+        Ok(Innovation { y_bar, m, s })
     }
 
     fn solve_information(&self) -> Result<DVector<f64>, CalibError> {

@@ -7,6 +7,7 @@ pub mod align;
 pub mod estimate;
 pub mod filter;
 pub mod lsq;
+pub mod model_check;
 pub mod plan;
 pub mod result;
 pub mod segment;
@@ -16,6 +17,7 @@ pub mod sources;
 use serde::{Deserialize, Serialize};
 
 pub use estimate::{estimate, EstimateOptions, NoiseDensity};
+pub use model_check::ModelCheck;
 pub use result::{CalibrationResult, ParameterEstimate};
 pub use segment::{DetectOptions, RunSegment, SegmentKind};
 

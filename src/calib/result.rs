@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::model_check::ModelCheck;
 use super::segment::RunSegment;
 
 /// One estimated parameter in its canonical unit.
@@ -101,6 +102,10 @@ pub struct CalibrationResult {
     pub convergence: Convergence,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cross_check: Option<CrossCheck>,
+    /// Whether the model explains the run (SPEC §5); absent only when no
+    /// filter pass ran (the least squares alone, without cross-check).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model_check: Option<ModelCheck>,
 }
 
 impl CalibrationResult {
@@ -140,6 +145,9 @@ impl CalibrationResult {
         }
         for w in &self.warnings {
             let _ = writeln!(out, "warning: {w}");
+        }
+        if let Some(check) = &self.model_check {
+            let _ = writeln!(out, "model check: {}", check.summary);
         }
         out
     }

@@ -1,0 +1,108 @@
+//! The model check over many seeds: how often it flags clean runs (the
+//! false-alarm rate) and runs carrying each SPEC §3 effect at the low end
+//! of its realistic size and at twice it.
+//!
+//! `cargo bench --bench model_check` (reference scheme, 600 s dwells,
+//! 20 Hz, seeds 1–10 for effects, 1–20 for clean runs);
+//! `-- --seeds N --clean N --rate HZ --dwell S --tactical`;
+//! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone.
+
+#[path = "../tests/model_check_support/mod.rs"]
+mod support;
+
+use std::time::Instant;
+
+use sinscal::model::Effects;
+use support::*;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let flag = |name: &str| -> Option<f64> {
+        let i = args.iter().position(|a| a == name)?;
+        args.get(i + 1)?.parse().ok()
+    };
+    let seeds = flag("--seeds").map_or(10, |n| n as u64);
+    let clean = flag("--clean").map_or(20, |n| n as u64);
+    let with_effects = flag("--effects").map_or(true, |v| v != 0.0);
+    let rate = flag("--rate").unwrap_or(20.0);
+    let dwell = flag("--dwell").unwrap_or(600.0);
+    let noise = if args.iter().any(|a| a == "--tactical") {
+        tactical_grade()
+    } else {
+        navigation_grade()
+    };
+    println!(
+        "model check: ten-position-9+9 (both ways for asymmetry), {dwell} s dwells, {rate} Hz, \
+         ARW {} deg/√h, VRW {} µg/√Hz",
+        noise.gyro_arw_deg_rt_h, noise.accel_vrw_ug_rt_hz
+    );
+    let t0 = Instant::now();
+    // Clean runs: the statistic's spread against its χ² law.
+    let mut flagged = 0;
+    let (mut sum_ratio, mut sum_ratio2, mut worst_z) = (0.0, 0.0, 0.0f64);
+    let mut worst_ratio = 0.0f64;
+    for seed in 1..=clean {
+        let c = check(&config(
+            nine_plus_nine(dwell),
+            Effects::none(),
+            noise,
+            rate,
+            seed,
+        ));
+        if !c.adequate {
+            flagged += 1;
+            println!("  clean seed {seed} flagged: {}", c.summary);
+        }
+        // (χ² − dof)/√(2 dof) is N(0, 1) under the model.
+        let r = (c.statistic - c.dof as f64) / (2.0 * c.dof as f64).sqrt();
+        sum_ratio += r;
+        sum_ratio2 += r * r;
+        worst_ratio = worst_ratio.max(c.statistic / c.threshold);
+        worst_z = worst_z.max(c.largest_z / c.largest_z_threshold);
+    }
+    let n = clean.max(1) as f64;
+    println!(
+        "clean: {flagged} of {clean} flagged; (χ²−dof)/√(2 dof) mean {:.2} rms {:.2}; \
+         largest χ²/threshold {:.2}, largest |z|/threshold {:.2} ({:.0} s)",
+        sum_ratio / n,
+        (sum_ratio2 / n).sqrt(),
+        worst_ratio,
+        worst_z,
+        t0.elapsed().as_secs_f64()
+    );
+    if !with_effects {
+        return;
+    }
+    println!("| effect | size | flagged | min χ²/threshold | min largest |z| |");
+    println!("|---|---|---|---|---|");
+    for k in [1.0, 2.0] {
+        for case in low_end_effects(k, dwell) {
+            let mut hits = 0;
+            let (mut min_ratio, mut min_z) = (f64::INFINITY, f64::INFINITY);
+            let mut example = String::new();
+            for seed in 1..=seeds {
+                let c = check(&config(
+                    case.scheme.clone(),
+                    case.effects,
+                    noise,
+                    rate,
+                    seed,
+                ));
+                if !c.adequate {
+                    hits += 1;
+                }
+                if example.is_empty() {
+                    example = c.summary.clone();
+                }
+                min_ratio = min_ratio.min(c.statistic / c.threshold);
+                min_z = min_z.min(c.largest_z);
+            }
+            println!(
+                "| {} | {} | {hits}/{seeds} | {min_ratio:.2} | {min_z:.1} |",
+                case.name, case.size
+            );
+            eprintln!("    e.g. {example}");
+        }
+    }
+    println!("({:.0} s)", t0.elapsed().as_secs_f64());
+}
