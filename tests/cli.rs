@@ -98,10 +98,43 @@ fn calibrate_prints_the_table_and_writes_the_result() {
         assert!(table.contains(name), "{table}");
     }
     assert!(table.contains("ug/g^2") && table.contains("arcsec"));
+    assert!(table.contains("model check: adequate"), "{table}");
     let result: serde_json::Value = read_json(&result_path).unwrap();
     let p = &result["parameters"]["gyro_scale_x"];
     assert_eq!(p["unit"], "ppm");
     assert!(p["sigma"].as_f64().unwrap() > 0.0);
+    assert_eq!(result["model_check"]["adequate"], true);
+    assert!(result["model_check"]["threshold"].as_f64().unwrap() > 0.0);
+}
+
+/// A run the 24-parameter model cannot explain (a 2 ms accelerometer
+/// delay) is calibrated, and the table says so and what to do.
+#[test]
+fn calibrate_says_when_the_model_does_not_explain_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let effects = dir.path().join("effects.json");
+    std::fs::write(&effects, r#"{"accel_delay": 2.0}"#).unwrap();
+    let out = dir.path().join("run");
+    let status = sinscal()
+        .args(["simulate", "--scheme", "ten-position", "--dwell", "60"])
+        .args(["--params", "paper", "--seed", "5", "--rate", "20"])
+        .arg("--effects")
+        .arg(&effects)
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let output = sinscal()
+        .arg("calibrate")
+        .arg(out.join("run.csv"))
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let table = String::from_utf8(output.stdout).unwrap();
+    assert!(table.contains("model check: inadequate"), "{table}");
+    assert!(table.contains("velocity step across the turn"), "{table}");
+    assert!(table.contains("run `sinscal diagnose`"), "{table}");
 }
 
 #[test]

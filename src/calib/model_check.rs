@@ -482,7 +482,7 @@ fn summarise(
     } else {
         let _ = write!(s, " It does not grow with time over the run.");
     }
-    s.push_str(" Run `sinscal diagnose` to name the missing effect.");
+    s.push_str(" To name the missing effect, run `sinscal diagnose`.");
     s
 }
 

@@ -920,6 +920,11 @@ pub fn diagnose(
     calibration.cross_check = None;
     calibration.dwell_residuals.clear();
     calibration.convergence = Default::default();
+    // The filter's check judged the base model; with effects named, the
+    // gap after the refit is the check of the model reported here.
+    if !named.is_empty() {
+        calibration.model_check = None;
+    }
 
     // Series.
     let to3 = |v: Vector3<f64>| -> [f64; 3] { v.into() };
