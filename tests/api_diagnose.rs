@@ -14,7 +14,9 @@ use sinscal::sim::{Noise, Scheme};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn diagnose_job_names_accel_delay() {
-    let app = spawn_app(1).await;
+    // Diagnosis on request only: the run below fails its model check, which
+    // would otherwise queue a diagnose job by itself (tests/api_model_check.rs).
+    let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
     let dir = tempfile::tempdir().unwrap();
     // The 9+9 scheme with 120 s dwells at 20 Hz: short enough to run in
     // seconds, long enough for a 2 ms accelerometer delay to stand out.

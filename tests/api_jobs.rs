@@ -125,7 +125,18 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
         estimator: "stale".into(),
         ..Default::default()
     };
-    assert!(!app.store.complete_job(&a, &fake).await.unwrap());
+    assert!(!app
+        .store
+        .complete_job(
+            &a,
+            &fake,
+            sinscal::store::OnInadequate {
+                queue_diagnose: true,
+                max_attempts: 3
+            }
+        )
+        .await
+        .unwrap());
     assert!(app
         .store
         .heartbeat(&a.fence, Duration::from_secs(30), 0.5, "x")

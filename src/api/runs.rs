@@ -17,7 +17,7 @@ use super::jobs::JobView;
 use super::upload::queue_full;
 use super::{parse_id, rfc3339, AppState};
 use crate::diagnose::DiagnoseReport;
-use crate::store::{DiagnoseQueued, JobRow, RunRow};
+use crate::store::{DiagnoseQueued, JobRow, Review, RunRow};
 
 #[derive(Serialize)]
 pub struct RunView {
@@ -33,6 +33,29 @@ pub struct RunView {
     pub recorded_at: Option<String>,
     pub run_time: String,
     pub metadata: serde_json::Value,
+    /// `pending` until calibrated; `needs_review` when the result's model
+    /// check found a misfit the 24 parameters cannot explain.
+    pub review: Review,
+    /// The result's model check in brief, once there is a result.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model_check: Option<ModelCheckBrief>,
+}
+
+/// A model check as run and history views show it; the whole check is in
+/// the result.
+#[derive(Serialize)]
+pub struct ModelCheckBrief {
+    pub adequate: bool,
+    pub summary: String,
+}
+
+impl ModelCheckBrief {
+    pub fn from_columns(adequate: Option<bool>, summary: Option<String>) -> Option<Self> {
+        Some(ModelCheckBrief {
+            adequate: adequate?,
+            summary: summary.unwrap_or_default(),
+        })
+    }
 }
 
 impl RunView {
@@ -51,6 +74,8 @@ impl RunView {
             uploaded_at: rfc3339(r.uploaded_at),
             recorded_at: r.recorded_at.map(rfc3339),
             run_time: rfc3339(r.run_time),
+            review: Review::from_column(r.review.as_deref()),
+            model_check: ModelCheckBrief::from_columns(r.model_adequate, r.model_summary),
         })
     }
 }

@@ -12,10 +12,11 @@ use serde::{Deserialize, Serialize};
 
 use super::auth::{roles, Auth};
 use super::error::ApiError;
+use super::runs::ModelCheckBrief;
 use super::{parse_time, rfc3339, AppState};
 use crate::io::meta::validate_serial;
 use crate::model::PARAMETERS;
-use crate::store::UnitSummary;
+use crate::store::{Review, UnitSummary};
 
 const MAX_PAGE: i64 = 1000;
 const DEFAULT_PAGE: i64 = 100;
@@ -97,6 +98,10 @@ pub struct HistoryItem {
     /// The stored JSON, passed through: a page of 100 runs is 2400
     /// estimates, not worth parsing only to print again.
     pub parameters: Box<serde_json::value::RawValue>,
+    /// `clear`, or `needs_review` when the model check failed.
+    pub review: Review,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model_check: Option<ModelCheckBrief>,
 }
 
 #[derive(Serialize)]
@@ -227,6 +232,11 @@ async fn history(
                 job_id: r.job_id,
                 run_time: rfc3339(r.run_time),
                 completed_at: rfc3339(r.completed_at),
+                review: match r.model_adequate {
+                    Some(false) => Review::NeedsReview,
+                    _ => Review::Clear,
+                },
+                model_check: ModelCheckBrief::from_columns(r.model_adequate, r.model_summary),
             })
         })
         .collect::<Result<_, ApiError>>()?;

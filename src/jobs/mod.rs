@@ -21,7 +21,7 @@ use crate::diagnose::{DiagnoseError, DiagnoseOptions};
 use crate::io::meta::RunMetadata;
 use crate::pipeline::{calibrate_file, diagnose_file};
 use crate::server::metrics::{JobOutcome, Metrics};
-use crate::store::{Claim, Store, StoreError};
+use crate::store::{Claim, OnInadequate, Store, StoreError};
 
 /// Errors of the job layer (only the database can fail it: an estimator
 /// failure is an outcome of the job, not an error of the worker).
@@ -116,6 +116,8 @@ pub struct JobSettings {
     pub estimate: EstimateOptions,
     /// First retry delay; doubled per attempt, at most a minute.
     pub retry_backoff: Duration,
+    /// What a result whose model check fails sets going.
+    pub on_inadequate: OnInadequate,
 }
 
 /// Runs jobs. One per server; each worker task calls
@@ -270,7 +272,11 @@ impl JobRunner {
         match joined {
             Ok(Ok(done)) => {
                 let written = match done {
-                    Done::Calibration(result) => self.store.complete_job(claim, &result).await?,
+                    Done::Calibration(result) => {
+                        self.store
+                            .complete_job(claim, &result, self.settings.on_inadequate)
+                            .await?
+                    }
                     Done::Diagnosis(report) => {
                         self.store.complete_diagnose_job(claim, &report).await?
                     }

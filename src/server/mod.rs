@@ -20,7 +20,7 @@ use crate::api::{self, auth, AppState};
 use crate::calib::EstimateOptions;
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
 use crate::model::{Group, PARAMETERS};
-use crate::store::{Role, Store, StoreError};
+use crate::store::{OnInadequate, Role, Store, StoreError};
 use metrics::Metrics;
 
 /// Errors starting or running the server.
@@ -75,6 +75,11 @@ pub struct ServeArgs {
     /// are handed back to the queue, seconds.
     #[arg(long, env = "SINSCAL_SHUTDOWN_GRACE_SECS", default_value_t = 20.0)]
     pub shutdown_grace_secs: f64,
+    /// Queue a diagnose job for every run whose calibration fails its
+    /// model check (`true` or `false`).
+    #[arg(long, env = "SINSCAL_DIAGNOSE_INADEQUATE", default_value_t = true,
+          action = clap::ArgAction::Set)]
+    pub diagnose_inadequate: bool,
     /// JSON object of repeatability tolerances by parameter name
     /// (canonical units), replacing the defaults it names.
     #[arg(long, env = "SINSCAL_TOLERANCES")]
@@ -99,6 +104,8 @@ pub struct Config {
     /// Repeatability tolerance by parameter name, canonical units.
     pub tolerances: BTreeMap<String, f64>,
     pub estimate: EstimateOptions,
+    /// Queue a diagnose job when a calibration's model check fails.
+    pub diagnose_inadequate: bool,
 }
 
 /// Default repeatability tolerances (1-σ over runs, and largest change
@@ -141,6 +148,7 @@ impl Config {
             max_concurrent_requests: 512,
             tolerances: default_tolerances(),
             estimate: EstimateOptions::default(),
+            diagnose_inadequate: true,
         }
     }
 
@@ -164,6 +172,7 @@ impl Config {
             return Err(ServerError::Config("--max-attempts must be ≥ 1".into()));
         }
         c.max_attempts = a.max_attempts;
+        c.diagnose_inadequate = a.diagnose_inadequate;
         if !(a.shutdown_grace_secs.is_finite() && a.shutdown_grace_secs >= 0.0) {
             return Err(ServerError::Config(
                 "--shutdown-grace-secs must be ≥ 0".into(),
@@ -270,6 +279,10 @@ impl Application {
                 lease: config.lease,
                 estimate: config.estimate.clone(),
                 retry_backoff: config.retry_backoff,
+                on_inadequate: OnInadequate {
+                    queue_diagnose: config.diagnose_inadequate,
+                    max_attempts: config.max_attempts,
+                },
             },
             metrics.clone(),
         ));

@@ -23,7 +23,7 @@ use sqlx::sqlite::{
 };
 use sqlx::{FromRow, Row};
 
-use crate::calib::{CalibrationResult, ParameterEstimate};
+use crate::calib::{CalibrationResult, ModelCheck, ParameterEstimate};
 
 mod spread;
 pub use spread::ParamSpread;
@@ -121,6 +121,55 @@ pub struct RunRow {
     pub run_time: i64,
     pub uploaded_at: i64,
     pub job_id: String,
+    /// `clear` or `needs_review` once calibrated (see [`Review`]).
+    #[sqlx(default)]
+    pub review: Option<String>,
+    /// The result's model check, when there is a result.
+    #[sqlx(default)]
+    pub model_adequate: Option<bool>,
+    #[sqlx(default)]
+    pub model_summary: Option<String>,
+}
+
+/// Whether a run needs an engineer's look.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Review {
+    /// Not calibrated yet.
+    Pending,
+    /// Calibrated, and the model explains the run.
+    Clear,
+    /// Calibrated, but the model check found a misfit the 24 parameters
+    /// cannot explain: the values may be biased by a missing effect.
+    NeedsReview,
+}
+
+impl Review {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Review::Pending => "pending",
+            Review::Clear => "clear",
+            Review::NeedsReview => "needs_review",
+        }
+    }
+
+    /// The review a stored column means (NULL: not calibrated yet).
+    pub fn from_column(s: Option<&str>) -> Self {
+        match s {
+            Some("needs_review") => Review::NeedsReview,
+            Some(_) => Review::Clear,
+            None => Review::Pending,
+        }
+    }
+}
+
+/// What storing a result sets going when its model check fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OnInadequate {
+    /// Queue a diagnose job for the run (unless one is queued or running).
+    pub queue_diagnose: bool,
+    /// Its attempts, as for any job.
+    pub max_attempts: i64,
 }
 
 #[derive(Clone, Debug, FromRow)]
@@ -228,6 +277,8 @@ pub struct HistoryRow {
     pub run_time: i64,
     pub completed_at: i64,
     pub parameters: String,
+    pub model_adequate: Option<bool>,
+    pub model_summary: Option<String>,
 }
 
 fn connect_options(db_path: &Path) -> SqliteConnectOptions {
@@ -425,8 +476,10 @@ impl Store {
 
     pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT r.*, j.id AS job_id FROM runs r
-             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate' WHERE r.id = ?",
+            "SELECT r.*, j.id AS job_id, res.model_adequate, res.model_summary FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
+             LEFT JOIN results res ON res.run_id = r.id
+             WHERE r.id = ?",
         )
         .bind(id)
         .fetch_optional(&self.read)
@@ -704,10 +757,16 @@ impl Store {
     /// Stores a result and marks the job succeeded, in one transaction, if
     /// and only if `fence` still holds the lease. False: it did not, and
     /// nothing was written.
+    ///
+    /// The run is marked `clear` or `needs_review` by the result's model
+    /// check; an inadequate one also queues a diagnose job when
+    /// `on_inadequate` says so. That job bypasses the queue limit: there
+    /// is at most one per calibrated run, whose upload passed the limit.
     pub async fn complete_job(
         &self,
         claim: &Claim,
         result: &CalibrationResult,
+        on_inadequate: OnInadequate,
     ) -> Result<bool, StoreError> {
         let now = now_ms();
         let fence = &claim.fence;
@@ -724,9 +783,37 @@ impl Store {
             run_time: claim.run_time,
             completed_at: now,
             parameters: &result.parameters,
+            model_check: result.model_check.as_ref(),
             document: &result_json,
         };
         insert_result(&mut tx, &stored).await?;
+        let adequate = result.model_check.as_ref().is_none_or(|c| c.adequate);
+        let review = if adequate {
+            Review::Clear
+        } else {
+            Review::NeedsReview
+        };
+        sqlx::query("UPDATE runs SET review = ? WHERE id = ?")
+            .bind(review.as_str())
+            .bind(&claim.run_id)
+            .execute(&mut *tx)
+            .await?;
+        if !adequate && on_inadequate.queue_diagnose {
+            sqlx::query(
+                "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
+                 SELECT ?, ?, 'diagnose', 'queued', ?, ?, ?
+                 WHERE NOT EXISTS (SELECT 1 FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+                                   AND state IN ('queued', 'running'))",
+            )
+            .bind(uuid::Uuid::new_v4().to_string())
+            .bind(&claim.run_id)
+            .bind(on_inadequate.max_attempts)
+            .bind(now)
+            .bind(now)
+            .bind(&claim.run_id)
+            .execute(&mut *tx)
+            .await?;
+        }
         tx.commit().await?;
         Ok(true)
     }
@@ -895,7 +982,8 @@ impl Store {
         .fetch_one(&self.read)
         .await?;
         let rows = sqlx::query_as(
-            "SELECT run_id, job_id, run_time, completed_at, parameters FROM results
+            "SELECT run_id, job_id, run_time, completed_at, parameters, model_adequate, model_summary
+             FROM results
              WHERE unit_serial = ? AND run_time >= ? AND run_time < ?
              ORDER BY run_time, run_id LIMIT ? OFFSET ?",
         )
@@ -970,9 +1058,14 @@ impl Store {
             run_time,
             completed_at: new.uploaded_at,
             parameters,
+            model_check: None,
             document: &document,
         };
         insert_result(&mut tx, &stored).await?;
+        sqlx::query("UPDATE runs SET review = 'clear' WHERE id = ?")
+            .bind(&new.run_id)
+            .execute(&mut *tx)
+            .await?;
         tx.commit().await?;
         Ok(())
     }
@@ -1008,6 +1101,7 @@ struct StoredResult<'a> {
     run_time: i64,
     completed_at: i64,
     parameters: &'a BTreeMap<String, ParameterEstimate>,
+    model_check: Option<&'a ModelCheck>,
     /// The whole `CalibrationResult` JSON.
     document: &'a str,
 }
@@ -1018,8 +1112,8 @@ async fn insert_result(
 ) -> Result<(), StoreError> {
     sqlx::query(
         "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
-                              param_values)
-         VALUES (?, ?, ?, ?, ?, ?, ?)",
+                              param_values, model_adequate, model_summary)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
     )
     .bind(r.run_id)
     .bind(r.job_id)
@@ -1028,6 +1122,8 @@ async fn insert_result(
     .bind(r.completed_at)
     .bind(serde_json::to_string(r.parameters)?)
     .bind(spread::encode(r.parameters))
+    .bind(r.model_check.map(|c| c.adequate))
+    .bind(r.model_check.map(|c| c.summary.as_str()))
     .execute(&mut **tx)
     .await?;
     sqlx::query("INSERT INTO result_documents (run_id, result) VALUES (?, ?)")

@@ -1,0 +1,138 @@
+//! The model check through the server: a run the 24-parameter model does
+//! not explain is stored with its check, marked for review in the run and
+//! history views, and gets a diagnose job by itself; a clean run is clear
+//! and gets none.
+
+mod common;
+
+use std::time::Duration;
+
+use common::*;
+use reqwest::StatusCode;
+use serde_json::Value;
+use sinscal::io::data::DataFormat;
+use sinscal::model::{Effects, ErrorParameters};
+use sinscal::sim::{Noise, Scheme, SimConfig};
+
+/// The 9+9 scheme with 120 s dwells at 20 Hz: seconds to calibrate, and a
+/// 2 ms accelerometer delay stands out at every turn.
+fn run_config(seed: u64, effects: Effects) -> SimConfig {
+    let mut cfg = sim_config(seed, ErrorParameters::paper(), "ten-position-9+9", 120.0);
+    cfg.sample_rate_hz = 20.0;
+    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
+    cfg.noise = Noise::default_navigation_grade();
+    cfg.effects = effects;
+    cfg
+}
+
+fn delayed() -> Effects {
+    Effects {
+        accel_delay: Some(2.0),
+        ..Effects::none()
+    }
+}
+
+async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let run = simulate_run(dir.path(), cfg, DataFormat::F64le, false, serial, None);
+    let r = app.upload_run(serial, &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let up: Value = r.json().await.unwrap();
+    let job = app
+        .wait_job(up["job_id"].as_str().unwrap(), Duration::from_secs(300))
+        .await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    up["run_id"].as_str().unwrap().to_string()
+}
+
+async fn post_diagnose(app: &TestApp, run_id: &str) -> (StatusCode, Value) {
+    let r = app
+        .http
+        .post(app.url(&format!("/runs/{run_id}/diagnose")))
+        .bearer_auth(&app.admin)
+        .send()
+        .await
+        .unwrap();
+    (r.status(), r.json().await.unwrap())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_inadequate_run_is_marked_and_diagnosed_by_itself() {
+    let app = spawn_app(1).await;
+    let run_id = upload_and_calibrate(&app, "RLG-MC1", &run_config(11, delayed())).await;
+
+    let result = app.get_result(&run_id).await;
+    let check = &result["model_check"];
+    assert_eq!(check["adequate"], false, "{check}");
+    assert!(check["statistic"].as_f64().unwrap() > check["threshold"].as_f64().unwrap());
+    assert!(!check["findings"].as_array().unwrap().is_empty());
+
+    let run = app.get_run(&run_id).await;
+    assert_eq!(run["review"], "needs_review", "{run}");
+    assert_eq!(run["model_check"]["adequate"], false);
+    let summary = run["model_check"]["summary"].as_str().unwrap();
+    assert!(summary.contains("run `sinscal diagnose`"), "{summary}");
+
+    let history = app.history("RLG-MC1", "").await;
+    assert_eq!(history["items"][0]["review"], "needs_review", "{history}");
+    assert_eq!(history["items"][0]["model_check"]["adequate"], false);
+
+    // A diagnose job was queued when the result was stored: asking again
+    // returns it (or, once it has finished, its report exists).
+    let (status, job) = post_diagnose(&app, &run_id).await;
+    let job_id = job["id"].as_str().unwrap().to_string();
+    assert_eq!(job["kind"], "diagnose");
+    if status == StatusCode::ACCEPTED {
+        // The automatic job finished before we asked: its report is there.
+        let r = app
+            .get(&app.admin, &format!("/runs/{run_id}/diagnosis"))
+            .await;
+        assert!(
+            matches!(r.status(), StatusCode::OK | StatusCode::CONFLICT),
+            "no automatic diagnosis: {}",
+            r.status()
+        );
+    } else {
+        assert_eq!(status, StatusCode::OK, "{job}");
+    }
+    let done = app.wait_job(&job_id, Duration::from_secs(600)).await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let r = app
+        .get(&app.admin, &format!("/runs/{run_id}/diagnosis"))
+        .await;
+    let report: Value = r.json().await.unwrap();
+    assert_eq!(report["named"][0], "accel_delay", "{}", report["verdict"]);
+    app.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
+    let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
+    let clean = upload_and_calibrate(&app, "RLG-MC2", &run_config(12, Effects::none())).await;
+    let run = app.get_run(&clean).await;
+    assert_eq!(run["review"], "clear", "{run}");
+    assert_eq!(run["model_check"]["adequate"], true);
+    assert_eq!(
+        app.get_result(&clean).await["model_check"]["adequate"],
+        true
+    );
+
+    // Inadequate, but with automatic diagnosis off: marked, not queued.
+    let bad = upload_and_calibrate(&app, "RLG-MC2", &run_config(13, delayed())).await;
+    assert_eq!(app.get_run(&bad).await["review"], "needs_review");
+    let (status, job) = post_diagnose(&app, &bad).await;
+    assert_eq!(
+        status,
+        StatusCode::ACCEPTED,
+        "a diagnose job was already queued: {job}"
+    );
+    let history = app.history("RLG-MC2", "").await;
+    let reviews: Vec<&str> = history["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["review"].as_str().unwrap())
+        .collect();
+    assert_eq!(reviews, ["clear", "needs_review"], "{history}");
+    app.stop().await;
+}
