@@ -1,6 +1,7 @@
 //! Simulation speed and memory: the 3.2 h `ten-position-9+9` run at
-//! 100 Hz with the paper's errors and noise, generated in memory and written
-//! to disk. Run: `cargo bench --bench simulate`.
+//! 100 Hz with the paper's errors and noise, turned on a table and by hand
+//! (SPEC §4 flips), generated in memory and written to disk. Run:
+//! `cargo bench --bench simulate`.
 
 use std::time::Instant;
 
@@ -11,7 +12,7 @@ use sinscal::io::data::DataFormat;
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
+use sinscal::sim::{simulate, HandTurns, Noise, Scheme, SimConfig};
 
 fn config(scheme: &str, effects: Effects) -> SimConfig {
     SimConfig {
@@ -58,6 +59,12 @@ fn main() {
         "ten-position-9+9 (3.2 h)",
         &config("ten-position-9+9", Effects::none()),
     );
+    let nominal = config("ten-position-9+9", Effects::none());
+    let by_hand = SimConfig {
+        scheme: Scheme::by_hand(&nominal.scheme, 1, &HandTurns::default()).unwrap(),
+        ..nominal
+    };
+    time_generation("ten-position-9+9 by hand (3.2 h)", &by_hand);
     let all_effects: Effects = serde_json::from_str(
         r#"{"accel_lever_arm": {"x": [50, 0, 0], "y": [0, 50, 0], "z": [0, 0, 50]},
             "gyro_g_sensitivity": [0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01],
