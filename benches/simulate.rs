@@ -1,7 +1,8 @@
 //! Simulation speed and memory: the 3.2 h `ten-position-9+9` run at
 //! 100 Hz with the paper's errors and noise, turned on a table and by hand
 //! (SPEC §4 flips), generated in memory and written to disk. Run:
-//! `cargo bench --bench simulate`.
+//! `cargo bench --bench simulate [-- WORD]`; with WORD, only the cases
+//! whose label holds it (e.g. `hand`), so their peak RSS is their own.
 
 use std::time::Instant;
 
@@ -49,13 +50,24 @@ fn time_generation(label: &str, cfg: &SimConfig) {
 }
 
 fn main() {
+    // `cargo bench` passes `--bench`; the first other argument filters.
+    let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
+    let selected = |label: &str| match filter.as_deref() {
+        Some(f) => label.contains(f),
+        None => true,
+    };
+    let timed = |label: &str, cfg: &SimConfig| {
+        if selected(label) {
+            time_generation(label, cfg);
+        }
+    };
     // Memory must not grow with run length: the 1.7 h run first, then the
     // 3.2 h one; peak RSS is reported after each.
-    time_generation(
+    timed(
         "ten-position (1.7 h)",
         &config("ten-position", Effects::none()),
     );
-    time_generation(
+    timed(
         "ten-position-9+9 (3.2 h)",
         &config("ten-position-9+9", Effects::none()),
     );
@@ -64,7 +76,7 @@ fn main() {
         scheme: Scheme::by_hand(&nominal.scheme, 1, &HandTurns::default()).unwrap(),
         ..nominal
     };
-    time_generation("ten-position-9+9 by hand (3.2 h)", &by_hand);
+    timed("ten-position-9+9 by hand (3.2 h)", &by_hand);
     let all_effects: Effects = serde_json::from_str(
         r#"{"accel_lever_arm": {"x": [50, 0, 0], "y": [0, 50, 0], "z": [0, 0, 50]},
             "gyro_g_sensitivity": [0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01],
@@ -72,7 +84,7 @@ fn main() {
             "gyro_scale_asymmetry": [50, 50, 50]}"#,
     )
     .unwrap();
-    time_generation(
+    timed(
         "ten-position-9+9, all effects",
         &config("ten-position-9+9", all_effects),
     );
@@ -83,6 +95,9 @@ fn main() {
         (DataFormat::Csv, false, "csv"),
         (DataFormat::Csv, true, "csv.gz"),
     ] {
+        if !selected(&format!("write {label}")) {
+            continue;
+        }
         let start = Instant::now();
         let files = write_simulated_run(
             &config("ten-position-9+9", Effects::none()),
