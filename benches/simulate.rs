@@ -1,6 +1,8 @@
 //! Simulation speed and memory: the 3.2 h `ten-position-9+9` run at
-//! 100 Hz with the paper's errors and noise, generated in memory and written
-//! to disk. Run: `cargo bench --bench simulate`.
+//! 100 Hz with the paper's errors and noise, turned on a table and by hand
+//! (SPEC §4 flips), generated in memory and written to disk. Run:
+//! `cargo bench --bench simulate [-- WORD]`; with WORD, only the cases
+//! whose label holds it (e.g. `hand`), so their peak RSS is their own.
 
 use std::time::Instant;
 
@@ -11,7 +13,7 @@ use sinscal::io::data::DataFormat;
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
+use sinscal::sim::{simulate, HandTurns, Noise, Scheme, SimConfig};
 
 fn config(scheme: &str, effects: Effects) -> SimConfig {
     SimConfig {
@@ -48,16 +50,33 @@ fn time_generation(label: &str, cfg: &SimConfig) {
 }
 
 fn main() {
+    // `cargo bench` passes `--bench`; the first other argument filters.
+    let filter = std::env::args().skip(1).find(|a| !a.starts_with('-'));
+    let selected = |label: &str| match filter.as_deref() {
+        Some(f) => label.contains(f),
+        None => true,
+    };
+    let timed = |label: &str, cfg: &SimConfig| {
+        if selected(label) {
+            time_generation(label, cfg);
+        }
+    };
     // Memory must not grow with run length: the 1.7 h run first, then the
     // 3.2 h one; peak RSS is reported after each.
-    time_generation(
+    timed(
         "ten-position (1.7 h)",
         &config("ten-position", Effects::none()),
     );
-    time_generation(
+    timed(
         "ten-position-9+9 (3.2 h)",
         &config("ten-position-9+9", Effects::none()),
     );
+    let nominal = config("ten-position-9+9", Effects::none());
+    let by_hand = SimConfig {
+        scheme: Scheme::by_hand(&nominal.scheme, 1, &HandTurns::default()).unwrap(),
+        ..nominal
+    };
+    timed("ten-position-9+9 by hand (3.2 h)", &by_hand);
     let all_effects: Effects = serde_json::from_str(
         r#"{"accel_lever_arm": {"x": [50, 0, 0], "y": [0, 50, 0], "z": [0, 0, 50]},
             "gyro_g_sensitivity": [0.01, 0, 0, 0, 0.01, 0, 0, 0, 0.01],
@@ -65,7 +84,7 @@ fn main() {
             "gyro_scale_asymmetry": [50, 50, 50]}"#,
     )
     .unwrap();
-    time_generation(
+    timed(
         "ten-position-9+9, all effects",
         &config("ten-position-9+9", all_effects),
     );
@@ -76,6 +95,9 @@ fn main() {
         (DataFormat::Csv, false, "csv"),
         (DataFormat::Csv, true, "csv.gz"),
     ] {
+        if !selected(&format!("write {label}")) {
+            continue;
+        }
         let start = Instant::now();
         let files = write_simulated_run(
             &config("ten-position-9+9", Effects::none()),

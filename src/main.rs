@@ -18,7 +18,7 @@ use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
 use sinscal::pipeline::{calibrate_file, diagnose_file};
-use sinscal::sim::{Noise, SchemeRef, SimConfig};
+use sinscal::sim::{HandTurns, Noise, Scheme, SchemeRef, SimConfig};
 
 #[derive(Parser)]
 #[command(
@@ -191,6 +191,14 @@ struct SimulateArgs {
     /// Unit serial written into run.json.
     #[arg(long, default_value = "SIM-0001")]
     serial: String,
+    /// Turn the scheme by hand (SPEC §4): every turn becomes a flip about
+    /// an axis 1–5° off, ±2° in angle, 30–120 °/s, the unit lifted 2–8 cm
+    /// and set down 1–5 cm away; truth.json holds the flips.
+    #[arg(long)]
+    manual: bool,
+    /// Seed of the hand turns; default: the run's seed.
+    #[arg(long, requires = "manual")]
+    manual_seed: Option<u64>,
     #[arg(long, default_value_t = 28.2215)]
     latitude: f64,
     #[arg(long, default_value_t = 112.9924)]
@@ -209,6 +217,16 @@ fn scheme_ref(arg: &str) -> anyhow::Result<SchemeRef> {
 }
 
 fn simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
+    let mut cfg = nominal_simulate_config(a)?;
+    if a.manual {
+        let seed = a.manual_seed.unwrap_or(cfg.seed);
+        cfg.scheme = Scheme::by_hand(&cfg.scheme, seed, &HandTurns::default())
+            .map_err(anyhow::Error::msg)?;
+    }
+    Ok(cfg)
+}
+
+fn nominal_simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
     if let Some(path) = &a.truth {
         let truth: Truth = read_json(path)?;
         let mut cfg = truth.to_sim_config()?;

@@ -65,7 +65,7 @@ fn assert_reconstructed_in_n(rep: &sinscal::diagnose::DiagnoseReport, cfg: &SimC
         .iter()
         .filter_map(|s| match s {
             Step::Rotate { rotate } => Some((rotate.axis, rotate.angle_deg)),
-            Step::Dwell { .. } => None,
+            Step::Dwell { .. } | Step::Flip { .. } => None,
         })
         .collect();
     let found = &rep.scheme.rotations;

@@ -4,9 +4,9 @@
 //!
 //! Integration is Gauss–Legendre quadrature on pieces split at every
 //! breakpoint of the rate profiles (where the angular acceleration jumps),
-//! with pieces further divided so that none turns more than 0.05 rad; on
-//! such pieces the 5-point rule is exact to far below 1e-12 of the
-//! increment. Dwells are integrated in closed form. ∫|ω_i| dt (scale-factor
+//! with pieces further divided so that none turns more than 0.05 rad (nor,
+//! in a flip, advances the phase of its lift and shift by more); on such
+//! pieces the 5-point rule is exact to far below 1e-12 of the increment. Dwells are integrated in closed form. ∫|ω_i| dt (scale-factor
 //! asymmetry) is also split at the zeros of ω_i, where it has a kink.
 //!
 //! Choices where SPEC is silent (also in the crate docs):

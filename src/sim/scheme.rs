@@ -76,12 +76,61 @@ impl Rotate {
     }
 }
 
-/// A step of a scheme: rest, or turn.
+/// A turn by hand (SPEC §4): a smooth S-shaped turn about a body-fixed
+/// axis while the reference point is lifted and set down elsewhere.
+/// Angle a(u) = a·(u − sin 2πu / 2π), height h·sin²(πu), horizontal
+/// shift s·(u − sin 2πu / 2π), u = τ/T.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Flip {
+    /// Turn axis in body axes; normalised before use.
+    pub axis_b: [f64; 3],
+    /// Signed angle, right-hand rule about `axis_b`.
+    pub angle_deg: f64,
+    pub duration_s: f64,
+    /// Peak height of the reference point above where it started, m.
+    #[serde(default)]
+    pub lift_m: f64,
+    /// Where the reference point is set down, [east, north] m from where it
+    /// was picked up.
+    #[serde(default)]
+    pub shift_m: [f64; 2],
+}
+
+impl Flip {
+    /// The unit turn axis in body axes (`validate` ensures |axis_b| > 0).
+    pub fn unit_axis_b(&self) -> [f64; 3] {
+        let [x, y, z] = self.axis_b;
+        let n = (x * x + y * y + z * z).sqrt();
+        [x / n, y / n, z / n]
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        let finite = self.axis_b.iter().all(|v| v.is_finite())
+            && self.angle_deg.is_finite()
+            && self.duration_s.is_finite()
+            && self.lift_m.is_finite()
+            && self.shift_m.iter().all(|v| v.is_finite());
+        if !finite {
+            return Err("flip values must be finite".into());
+        }
+        if self.axis_b.iter().all(|&v| v == 0.0) {
+            return Err("flip axis_b must not be zero".into());
+        }
+        if self.duration_s <= 0.0 {
+            return Err(format!("flip duration_s {} must be > 0", self.duration_s));
+        }
+        Ok(())
+    }
+}
+
+/// A step of a scheme: rest, a turntable turn, or a turn by hand.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
 pub enum Step {
     Dwell { dwell_s: f64 },
     Rotate { rotate: Rotate },
+    Flip { flip: Flip },
 }
 
 /// A rotation scheme: a list of steps applied in order from the start
@@ -224,12 +273,13 @@ impl Scheme {
                         ));
                     }
                 }
+                Step::Flip { flip } => flip.validate().map_err(|e| format!("step {n}: {e}"))?,
             }
         }
         Ok(())
     }
 
-    /// Number of dwells and rotations.
+    /// Number of dwells and turns (turntable or by hand).
     pub fn counts(&self) -> (usize, usize) {
         let dwells = self
             .steps
