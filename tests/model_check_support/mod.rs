@@ -37,6 +37,17 @@ pub fn nine_plus_nine(dwell_s: f64) -> Scheme {
     Scheme::builtin("ten-position-9+9", dwell_s).unwrap()
 }
 
+/// The 9+9 scheme turned by hand (SPEC §4): fast S-shaped flips about
+/// axes a few degrees off, the unit lifted and set down elsewhere.
+pub fn nine_plus_nine_by_hand(dwell_s: f64, seed: u64) -> Scheme {
+    Scheme::by_hand(
+        &nine_plus_nine(dwell_s),
+        seed,
+        &sinscal::sim::HandTurns::default(),
+    )
+    .unwrap()
+}
+
 /// The paper's ten positions, then each axis turned back a quarter and a
 /// half turn, so an asymmetric scale factor differs from a scale factor.
 pub fn both_ways(dwell_s: f64) -> Scheme {
