@@ -322,10 +322,15 @@ async fn stalled_uploads_are_dropped_and_a_normal_upload_is_answered() {
     let runs = tempfile::tempdir().unwrap();
     let run = short_run(runs.path(), 5, DataFormat::Csv, "RLG-STALL");
     let upload = app.upload_run("RLG-STALL", &run);
+    let sent = Instant::now();
     let r = tokio::time::timeout(Duration::from_secs(30), upload)
         .await
         .expect("a normal upload is answered while stalled clients hold connections");
     assert_eq!(r.status(), StatusCode::ACCEPTED);
+    eprintln!(
+        "stalled uploads: a normal upload behind 20 stalled ones answered in {:.1} s (idle timeout 2 s)",
+        sent.elapsed().as_secs_f64()
+    );
     // The stalled clients were answered 408 (problem+json) and let go.
     let mut s = stalled.pop().unwrap();
     s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
@@ -346,19 +351,14 @@ fn process_cpu_s() -> f64 {
     tv(ru.ru_utime) + tv(ru.ru_stime)
 }
 
-/// A 10 MB gzip of comment lines that expands to 10 GiB is refused at the
-/// comment-line cap, having decompressed about 10 MB of it.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_gzip_bomb_of_comment_lines_is_refused_after_a_bounded_read() {
-    let app = spawn_app(0).await;
-    // One gzip member of 1 MiB of comment lines, repeated: members
-    // concatenate, so the body costs one small compression to make.
-    let line = format!("#{}\n", "x".repeat(1022));
-    let chunk = line.repeat(1024);
+/// Uploads `members` copies of one gzip member holding 1 MiB of `line`
+/// repeated (members concatenate, so the body costs one small compression
+/// to make); the refusal, the compressed size and the process CPU used.
+async fn send_bomb(app: &TestApp, line: &str, members: usize) -> (StatusCode, Value, usize, f64) {
+    let chunk = line.repeat((1 << 20) / line.len());
     let mut enc = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
     enc.write_all(chunk.as_bytes()).unwrap();
     let member = Bytes::from(enc.finish().unwrap());
-    let members = 10 * 1024; // 10 GiB decompressed
     let compressed = member.len() * members;
     let body = futures_util::stream::iter(
         (0..members).map(move |_| Ok::<_, std::io::Error>(member.clone())),
@@ -375,15 +375,25 @@ async fn a_gzip_bomb_of_comment_lines_is_refused_after_a_bounded_read() {
         .await
         .unwrap();
     let (status, p) = problem(r).await;
-    let cpu = process_cpu_s() - cpu0;
+    (status, p, compressed, process_cpu_s() - cpu0)
+}
+
+/// Gzip bombs of comment lines are refused after a bounded read: 10 GB of
+/// short comment lines (10 MB of gzip) at the comment-line cap, long
+/// comment lines (fewer of them) at the expansion-ratio cap.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn gzip_bombs_of_comment_lines_are_refused_after_a_bounded_read() {
+    let app = spawn_app(0).await;
+    let defaults = sinscal::server::Config::new(".");
+    // 9537 MiB = 10 GB.
+    let (status, p, compressed, cpu) = send_bomb(&app, "#\n", 9537).await;
     eprintln!(
-        "comment bomb: {compressed} bytes of gzip (10 GiB of comments) refused with {status} \
-         after {cpu:.2} s of process CPU: {}",
+        "comment bomb: {compressed} bytes of gzip (10 GB of comment lines) refused with \
+         {status} after {cpu:.2} s of process CPU: {}",
         p["detail"]
     );
     assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY, "{p}");
-    let cap = sinscal::server::Config::new(".").max_comment_lines;
-    assert_eq!(p["line"], cap + 1, "{p}");
+    assert_eq!(p["line"], defaults.max_comment_lines + 1, "{p}");
     assert!(
         p["detail"]
             .as_str()
@@ -391,6 +401,22 @@ async fn a_gzip_bomb_of_comment_lines_is_refused_after_a_bounded_read() {
             .contains("comment or blank lines"),
         "{p}"
     );
+
+    let long = format!("#{}\n", "x".repeat(4094));
+    let (status, p, compressed, cpu) = send_bomb(&app, &long, 2048).await;
+    eprintln!(
+        "long-line bomb: {compressed} bytes of gzip (2 GiB) refused with {status} after \
+         {cpu:.2} s of process CPU: {}",
+        p["detail"]
+    );
+    assert_eq!(status, StatusCode::PAYLOAD_TOO_LARGE, "{p}");
+    assert!(
+        p["detail"].as_str().unwrap().contains("expands more than"),
+        "{p}"
+    );
+    // Refused within the first 16 MiB (+ one read-ahead window) of text.
+    let line = p["line"].as_u64().unwrap();
+    assert!(line <= (17 << 20) / 4096, "{p}");
     assert!(app.stored_files().is_empty());
     app.stop().await;
 }
