@@ -37,11 +37,18 @@ fn mount_tmpfs(mib: u32) -> Option<tempfile::TempDir> {
     }
 }
 
-fn unmount(path: &Path) {
-    let _ = std::process::Command::new("umount")
-        .arg("-l")
-        .arg(path)
-        .status();
+/// Unmounts (lazily, so a still-open file does not stop it) when dropped,
+/// a failed assertion included.
+struct Unmount(PathBuf);
+
+impl Drop for Unmount {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount")
+            .arg("-l")
+            .arg(&self.0)
+            .status();
+        let _ = std::fs::remove_dir(&self.0);
+    }
 }
 
 /// Fills the filesystem holding `dir` with a ballast file until ENOSPC.
@@ -120,6 +127,7 @@ async fn a_real_full_disk_refuses_uploads_and_recovers_by_itself() {
         return;
     };
     let mount_path = mount.path().to_path_buf();
+    let _unmount = Unmount(mount_path.clone());
     let (dir_a, dir_b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let run_a = short_run(dir_a.path(), 1, DataFormat::Csv, "RLG-FULL");
     let run_b = short_run(dir_b.path(), 2, DataFormat::Csv, "RLG-FULL");
@@ -206,7 +214,6 @@ async fn a_real_full_disk_refuses_uploads_and_recovers_by_itself() {
     // The writer is usable: a write after the full disk succeeds.
     app.create_token("engineer").await;
     app.stop().await;
-    unmount(&mount_path);
 }
 
 /// The same path on any machine: the storage-full error injected where
