@@ -186,6 +186,7 @@ async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
                 recorded_at: Some(t0 + (k as i64) * 86_400_000),
                 uploaded_at: t0,
                 max_attempts: 3,
+                uploaded_by: None,
             };
             store.seed_calibrated_run(&new, &params).await.unwrap();
         }

@@ -56,11 +56,15 @@ async fn bad_data_is_refused_naming_the_problem_and_nothing_is_stored() {
     let app = spawn_app_with(0, |c| {
         c.max_body_bytes = 4 << 20;
         c.max_decompressed_bytes = 1 << 20;
+        // The bomb below is refused by size; the comment-line cap has its
+        // own test (api_faults).
+        c.max_comment_lines = 1_000_000;
     })
     .await;
     let csv_meta = metadata("RLG-0042", "csv");
     let bin_meta = metadata("RLG-0042", "f64le");
-    let good: Vec<String> = good_lines(50);
+    // 40 s at 100 Hz: the shortest run accepted.
+    let good: Vec<String> = good_lines(4001);
     let with = |i: usize, line: &str| {
         let mut l: Vec<&str> = good.iter().map(String::as_str).collect();
         l[i] = line;
@@ -357,7 +361,7 @@ async fn bad_data_is_refused_naming_the_problem_and_nothing_is_stored() {
     let run: serde_json::Value = r.json().await.unwrap();
     assert_eq!(
         app.get_run(run["run_id"].as_str().unwrap()).await["records"],
-        50
+        4001
     );
     app.stop().await;
 }
@@ -414,7 +418,7 @@ async fn roles_are_enforced_and_a_full_queue_answers_503() {
     let station = app.create_token("station").await;
     let engineer = app.create_token("engineer").await;
     let meta = metadata("RLG-0042", "csv");
-    let data = csv(&good_lines(20)
+    let data = csv(&good_lines(4001)
         .iter()
         .map(String::as_str)
         .collect::<Vec<_>>());
@@ -460,7 +464,7 @@ async fn roles_are_enforced_and_a_full_queue_answers_503() {
     );
 
     // The queue holds one job: the next distinct run is refused, not stored.
-    let other = csv(&good_lines(21)
+    let other = csv(&good_lines(4002)
         .iter()
         .map(String::as_str)
         .collect::<Vec<_>>());

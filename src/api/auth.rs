@@ -52,12 +52,23 @@ impl Auth {
     }
 }
 
+impl Auth {
+    /// Whether the caller may read a run (and its jobs) uploaded by the
+    /// token `uploaded_by`: a station reads only what it uploaded;
+    /// engineers and admins read everything. Callers answer 404 otherwise,
+    /// so a station cannot even learn that another station's id exists.
+    pub fn may_read_run(&self, uploaded_by: Option<&str>) -> bool {
+        self.role != Role::Station || uploaded_by == Some(self.token_id.as_str())
+    }
+}
+
 /// Who may do what.
 pub mod roles {
     use crate::store::Role;
     /// Upload runs.
     pub const UPLOAD: &[Role] = &[Role::Station, Role::Admin];
-    /// Read a run or a job: stations follow the Location of their uploads.
+    /// Read a run or a job: stations follow the Location of their own
+    /// uploads only (see [`Auth::may_read_run`]).
     pub const FOLLOW: &[Role] = &[Role::Station, Role::Engineer, Role::Admin];
     /// Read results, units, history, statistics; cancel jobs.
     pub const ENGINEER: &[Role] = &[Role::Engineer, Role::Admin];

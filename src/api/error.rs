@@ -6,7 +6,11 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
 use crate::io::data::{DataError, Position};
-use crate::store::StoreError;
+use crate::store::{is_storage_full_io, StoreError};
+
+/// How long a client is asked to wait after a full disk (507) before
+/// retrying: long enough for an operator or a cleanup job to free space.
+pub const STORAGE_FULL_RETRY_AFTER_S: u64 = 60;
 
 pub const PROBLEM_JSON: &str = "application/problem+json";
 
@@ -36,12 +40,25 @@ pub enum ApiError {
     /// 405: the path exists, the method does not.
     #[error("method not allowed")]
     MethodNotAllowed,
+    /// 408: the upload body stalled (no data for the idle timeout, or
+    /// slower than the minimum rate).
+    #[error("{0}")]
+    RequestTimeout(String),
     /// 409: the resource's state forbids this now.
     #[error("{0}")]
     Conflict(String),
     /// 413: the body exceeds the configured limit.
     #[error("{0}")]
     PayloadTooLarge(String),
+    /// 414: the request target is longer than the server reads.
+    #[error("{0}")]
+    UriTooLong(String),
+    /// 422: the request body is well-formed JSON with invalid content.
+    #[error("{0}")]
+    Unprocessable(String),
+    /// 431: the request's header fields are too large or too many.
+    #[error("{0}")]
+    HeadersTooLarge(String),
     /// 422: the metadata is invalid.
     #[error("{0}")]
     InvalidMetadata(String),
@@ -51,19 +68,40 @@ pub enum ApiError {
     /// 503: the queue is full or the server is stopping; retry later.
     #[error("{detail}")]
     Unavailable { detail: String, retry_after_s: u64 },
+    /// 507: the disk holding the data is full; retry later.
+    #[error("{detail}")]
+    InsufficientStorage { detail: String, retry_after_s: u64 },
     /// 500: logged with its cause chain, answered opaquely.
     #[error("internal error: {0}")]
     Internal(String),
 }
 
+impl ApiError {
+    /// The answer to a full disk.
+    pub fn storage_full() -> ApiError {
+        ApiError::InsufficientStorage {
+            detail: "the server's storage is full; retry later".into(),
+            retry_after_s: STORAGE_FULL_RETRY_AFTER_S,
+        }
+    }
+}
+
 impl From<StoreError> for ApiError {
     fn from(e: StoreError) -> Self {
+        if e.is_storage_full() {
+            tracing::warn!(error = %e, "write refused: storage full");
+            return ApiError::storage_full();
+        }
         ApiError::Internal(e.to_string())
     }
 }
 
 impl From<std::io::Error> for ApiError {
     fn from(e: std::io::Error) -> Self {
+        if is_storage_full_io(&e) {
+            tracing::warn!(error = %e, "write refused: storage full");
+            return ApiError::storage_full();
+        }
         ApiError::Internal(format!("I/O: {e}"))
     }
 }
@@ -82,10 +120,12 @@ impl From<axum::extract::rejection::QueryRejection> for ApiError {
 
 impl From<axum::extract::rejection::JsonRejection> for ApiError {
     fn from(e: axum::extract::rejection::JsonRejection) -> Self {
-        if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
-            ApiError::PayloadTooLarge(e.body_text())
-        } else {
-            ApiError::BadRequest(e.body_text())
+        match e.status() {
+            StatusCode::PAYLOAD_TOO_LARGE => ApiError::PayloadTooLarge(e.body_text()),
+            // Valid JSON that does not fit the request's schema (an unknown
+            // role, a missing field).
+            StatusCode::UNPROCESSABLE_ENTITY => ApiError::Unprocessable(e.body_text()),
+            _ => ApiError::BadRequest(e.body_text()),
         }
     }
 }
@@ -181,6 +221,46 @@ impl IntoResponse for ApiError {
                 detail,
                 None,
             ),
+            ApiError::RequestTimeout(_) => render(
+                StatusCode::REQUEST_TIMEOUT,
+                "about:blank",
+                "Request Timeout",
+                detail,
+                None,
+            ),
+            ApiError::UriTooLong(_) => render(
+                StatusCode::URI_TOO_LONG,
+                "about:blank",
+                "URI Too Long",
+                detail,
+                None,
+            ),
+            ApiError::HeadersTooLarge(_) => render(
+                StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+                "about:blank",
+                "Request Header Fields Too Large",
+                detail,
+                None,
+            ),
+            ApiError::Unprocessable(_) => render(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "about:blank",
+                "Unprocessable Content",
+                detail,
+                None,
+            ),
+            ApiError::InsufficientStorage { retry_after_s, .. } => {
+                let mut r = render(
+                    StatusCode::INSUFFICIENT_STORAGE,
+                    "urn:sinscal:problem:storage-full",
+                    "Insufficient Storage",
+                    detail,
+                    None,
+                );
+                r.headers_mut()
+                    .insert(header::RETRY_AFTER, HeaderValue::from(retry_after_s));
+                r
+            }
             ApiError::Conflict(_) => render(
                 StatusCode::CONFLICT,
                 "about:blank",
@@ -208,7 +288,7 @@ impl IntoResponse for ApiError {
                     Position::Record { number, .. } => ProblemPosition::Record(number),
                 });
                 let (status, title) = match e {
-                    DataError::TooLarge { .. } => {
+                    DataError::TooLarge { .. } | DataError::ExpansionRatio { .. } => {
                         (StatusCode::PAYLOAD_TOO_LARGE, "Run data too large")
                     }
                     _ => (StatusCode::UNPROCESSABLE_ENTITY, "Invalid run data"),

@@ -9,7 +9,7 @@ use serde::Serialize;
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::{parse_id, rfc3339, AppState};
-use crate::store::JobRow;
+use crate::store::{JobRow, Role};
 
 #[derive(Serialize)]
 pub struct JobView {
@@ -69,11 +69,18 @@ async fn get_job(
 ) -> Result<Json<JobView>, ApiError> {
     auth.require(roles::FOLLOW)?;
     let id = parse_id(path?.0, "job")?;
-    let job = st
-        .store
-        .get_job(&id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no job {id}")))?;
+    let not_found = || ApiError::NotFound(format!("no job {id}"));
+    let job = st.store.get_job(&id).await?.ok_or_else(not_found)?;
+    if auth.role == Role::Station {
+        let uploader = st
+            .store
+            .get_run(&job.run_id)
+            .await?
+            .and_then(|r| r.uploaded_by);
+        if !auth.may_read_run(uploader.as_deref()) {
+            return Err(not_found());
+        }
+    }
     Ok(Json(job.into()))
 }
 

@@ -9,6 +9,7 @@ mod runs;
 mod tokens;
 mod units;
 pub mod upload;
+pub mod upload_guard;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -24,6 +25,7 @@ use tower_http::trace::TraceLayer;
 
 use self::auth::{roles, Auth};
 use self::error::{problem_response, ApiError, PROBLEM_JSON};
+use crate::server::disk::available_bytes;
 use crate::server::metrics::Metrics;
 use crate::server::Config;
 use crate::store::Store;
@@ -70,6 +72,7 @@ pub fn router(state: AppState) -> Router {
     Router::new()
         .nest("/api/v1", api)
         .fallback(|| async { ApiError::NotFound("no such endpoint".into()) })
+        .layer(axum::middleware::from_fn(bound_request_head))
         .layer(axum::middleware::map_response(ensure_problem))
         .layer(tower::limit::GlobalConcurrencyLimitLayer::new(
             state.config.max_concurrent_requests,
@@ -100,6 +103,40 @@ async fn ensure_problem(resp: Response) -> Response {
         }
     }
     fixed
+}
+
+/// Longest request target (path and query) served.
+const MAX_URI_BYTES: usize = 16 * 1024;
+/// Most header fields, and most bytes of names and values, served.
+const MAX_HEADER_FIELDS: usize = 64;
+const MAX_HEADER_BYTES: usize = 64 * 1024;
+
+/// Refuses an oversized request head with problem+json (414, 431). These
+/// limits sit well inside the HTTP parser's own (URI 64 KiB, 100 fields,
+/// ~400 KiB of head), which answer without a body; a request between the
+/// two is answered here, as documented.
+async fn bound_request_head(req: axum::extract::Request, next: axum::middleware::Next) -> Response {
+    let uri_len = req.uri().path_and_query().map_or(0, |p| p.as_str().len());
+    if uri_len > MAX_URI_BYTES {
+        return ApiError::UriTooLong(format!(
+            "the request target is {uri_len} bytes; at most {MAX_URI_BYTES} are served"
+        ))
+        .into_response();
+    }
+    let fields = req.headers().len();
+    let bytes: usize = req
+        .headers()
+        .iter()
+        .map(|(n, v)| n.as_str().len() + v.len())
+        .sum();
+    if fields > MAX_HEADER_FIELDS || bytes > MAX_HEADER_BYTES {
+        return ApiError::HeadersTooLarge(format!(
+            "{fields} header fields, {bytes} bytes; at most {MAX_HEADER_FIELDS} fields and \
+             {MAX_HEADER_BYTES} bytes are served"
+        ))
+        .into_response();
+    }
+    next.run(req).await
 }
 
 /// Ids are UUIDs made by the server; anything else names nothing.
@@ -134,20 +171,64 @@ async fn healthz() -> Json<serde_json::Value> {
     Json(serde_json::json!({"status": "ok"}))
 }
 
+/// Ready when the server can take an upload to its end: not stopping, the
+/// data folder above its free-space floor and writable, the database
+/// readable and writable. Each check runs on every call, so readiness
+/// returns by itself once space is freed.
 async fn readyz(State(st): State<AppState>) -> Response {
-    if st.stopping.load(Ordering::Relaxed) {
-        return problem_response(StatusCode::SERVICE_UNAVAILABLE, "shutting down".into());
-    }
-    match st.store.ping().await {
-        Ok(()) => Json(serde_json::json!({"status": "ready"})).into_response(),
-        Err(e) => {
-            tracing::error!(error = %e, "readiness: database");
-            problem_response(
-                StatusCode::SERVICE_UNAVAILABLE,
-                "database unavailable".into(),
-            )
+    match not_ready(&st).await {
+        None => Json(serde_json::json!({"status": "ready"})).into_response(),
+        Some(why) => {
+            tracing::warn!(why, "not ready");
+            let mut r = problem_response(StatusCode::SERVICE_UNAVAILABLE, why);
+            r.headers_mut()
+                .insert(header::RETRY_AFTER, header::HeaderValue::from(10u64));
+            r
         }
     }
+}
+
+/// Why the server is not ready, if it is not.
+async fn not_ready(st: &AppState) -> Option<String> {
+    if st.stopping.load(Ordering::Relaxed) {
+        return Some("shutting down".into());
+    }
+    let dir = st.config.data_dir.clone();
+    let floor = st.config.min_free_bytes;
+    let disk = tokio::task::spawn_blocking(move || -> Result<(), String> {
+        let free = available_bytes(&dir).map_err(|e| format!("data folder: {e}"))?;
+        if free < floor {
+            return Err(format!(
+                "storage low: {free} bytes free in the data folder, below the floor of {floor}"
+            ));
+        }
+        write_probe_file(&dir).map_err(|e| format!("data folder not writable: {e}"))
+    })
+    .await
+    .unwrap_or_else(|e| Err(format!("probe task: {e}")));
+    if let Err(why) = disk {
+        return Some(why);
+    }
+    if let Err(e) = st.store.ping().await {
+        return Some(format!("database unavailable: {e}"));
+    }
+    if let Err(e) = st.store.write_probe().await {
+        return Some(format!("database not writable: {e}"));
+    }
+    None
+}
+
+/// Writes, syncs and removes a small file where uploads are spooled.
+fn write_probe_file(data_dir: &std::path::Path) -> std::io::Result<()> {
+    use std::io::Write;
+    let path = data_dir.join("runs").join("tmp").join("ready-probe");
+    let result = (|| {
+        let mut f = std::fs::File::create(&path)?;
+        f.write_all(&[0u8; 4096])?;
+        f.sync_all()
+    })();
+    let _ = std::fs::remove_file(&path);
+    result
 }
 
 async fn metrics(State(st): State<AppState>, auth: Auth) -> Result<Response, ApiError> {

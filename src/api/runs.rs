@@ -100,6 +100,7 @@ async fn get_run(
         .store
         .get_run(&id)
         .await?
+        .filter(|r| auth.may_read_run(r.uploaded_by.as_deref()))
         .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
     Ok(Json(RunView::from_row(run)?))
 }

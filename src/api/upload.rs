@@ -26,11 +26,13 @@ use sha2::{Digest, Sha256};
 
 use super::auth::{roles, Auth};
 use super::error::ApiError;
+use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
 use super::AppState;
 use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
+use crate::server::disk::available_bytes;
 use crate::server::metrics::UploadOutcome;
-use crate::store::{now_ms, InsertOutcome, NewRun, RunRow};
+use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunRow};
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.
 pub const METADATA_HEADER: &str = "x-sinscal-metadata";
@@ -38,8 +40,13 @@ pub const METADATA_HEADER: &str = "x-sinscal-metadata";
 const MAX_METADATA_BYTES: usize = 256 * 1024;
 /// After the data is refused, read at most this much more of the body so
 /// the client sees the answer rather than a reset connection; a hostile
-/// client cannot make the server read its whole body.
-const MAX_DRAIN_BYTES: u64 = 8 << 20;
+/// client cannot make the server read its whole body. Draining costs no
+/// decompression, only the network, and is paced like the body; 16 MiB
+/// covers a refused 10 MB upload whole.
+const MAX_DRAIN_BYTES: u64 = 16 << 20;
+/// Shortest run accepted: the estimator needs at least two dwells of 20 s
+/// (one to align on, another attitude to observe anything) and a turn.
+const MIN_RUN_SECONDS: f64 = 40.0;
 
 #[derive(Debug, Deserialize)]
 pub struct UploadQuery {
@@ -91,6 +98,9 @@ enum SinkError {
 
 impl From<SinkError> for ApiError {
     fn from(e: SinkError) -> Self {
+        if let Some(c) = find_cause::<CpuBudgetExceeded>(&e) {
+            return ApiError::PayloadTooLarge(c.to_string());
+        }
         match e {
             SinkError::Data(d) => ApiError::InvalidData(d),
             SinkError::Io(e) => ApiError::from(e),
@@ -109,10 +119,13 @@ struct Tee {
     /// A failure of our disk, kept apart so that it is not reported to the
     /// client as a fault of its data.
     write_error: Option<io::Error>,
+    /// The validator pulls every chunk through here: its CPU is charged.
+    budget: CpuBudget,
 }
 
 impl Tee {
     fn next_chunk(&mut self) -> io::Result<bool> {
+        self.budget.check()?;
         match self.rx.blocking_recv() {
             Some(chunk) => {
                 self.hasher.update(&chunk);
@@ -153,8 +166,10 @@ fn sink(
     rx: tokio::sync::mpsc::Receiver<Bytes>,
     file: std::fs::File,
     check: Option<(DataFormat, f64, ReadLimits)>,
+    max_cpu: std::time::Duration,
 ) -> Result<Sunk, SinkError> {
     let mut tee = Tee {
+        budget: CpuBudget::start(max_cpu),
         rx,
         current: Bytes::new(),
         file: BufWriter::with_capacity(1 << 20, file),
@@ -198,6 +213,8 @@ fn count_records(
 fn read_limits(st: &AppState) -> ReadLimits {
     ReadLimits {
         max_decompressed_bytes: Some(st.config.max_decompressed_bytes),
+        max_skipped_lines: Some(st.config.max_comment_lines),
+        max_expansion_ratio: Some(st.config.max_expansion_ratio),
         ..ReadLimits::default()
     }
 }
@@ -219,7 +236,8 @@ where
     let file = std::fs::File::create(&temp.path)?;
     let (tx, rx) = tokio::sync::mpsc::channel::<Bytes>(16);
     let check = meta.map(|m| (m.format, m.sample_rate_hz, read_limits(st)));
-    let task = tokio::task::spawn_blocking(move || sink(rx, file, check));
+    let max_cpu = st.config.upload_max_cpu;
+    let task = tokio::task::spawn_blocking(move || sink(rx, file, check, max_cpu));
     let mut received = 0u64;
     let mut drained: Option<u64> = None;
     let mut body_error = None;
@@ -282,19 +300,21 @@ fn parse_metadata(text: &[u8], serial: &str) -> Result<RunMetadata, ApiError> {
 }
 
 fn body_error(e: axum::Error, limit: u64) -> ApiError {
-    let mut source: Option<&(dyn std::error::Error + 'static)> = Some(&e);
-    while let Some(s) = source {
-        if s.is::<http_body_util::LengthLimitError>() {
-            return ApiError::PayloadTooLarge(format!(
-                "the request body exceeds the limit of {limit} bytes"
-            ));
-        }
-        source = s.source();
+    if let Some(s) = find_cause::<Stalled>(&e) {
+        return ApiError::RequestTimeout(s.to_string());
+    }
+    if find_cause::<http_body_util::LengthLimitError>(&e).is_some() {
+        return ApiError::PayloadTooLarge(format!(
+            "the request body exceeds the limit of {limit} bytes"
+        ));
     }
     ApiError::BadRequest(format!("reading the request body failed: {e}"))
 }
 
 fn multipart_error(e: axum::extract::multipart::MultipartError) -> ApiError {
+    if let Some(s) = find_cause::<Stalled>(&e) {
+        return ApiError::RequestTimeout(s.to_string());
+    }
     if e.status() == StatusCode::PAYLOAD_TOO_LARGE {
         ApiError::PayloadTooLarge(e.body_text())
     } else {
@@ -319,8 +339,42 @@ fn answer(status: StatusCode, run_id: &str, job_id: &str, sha256: &str) -> Respo
     resp
 }
 
-fn existing_answer(run: &RunRow) -> Response {
-    answer(StatusCode::OK, &run.id, &run.job_id, &run.sha256)
+/// The answer to bytes already stored for the unit. A station learns of
+/// another uploader's run nothing but that it exists (no ids, no
+/// metadata); bytes re-sent with different metadata are refused rather
+/// than silently answered with the old run.
+fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<Response, ApiError> {
+    if auth.role == Role::Station && run.uploaded_by.as_deref() != Some(auth.token_id.as_str()) {
+        return Err(ApiError::Conflict(
+            "these bytes are already stored for this unit by another uploader".into(),
+        ));
+    }
+    if run.metadata != metadata {
+        return Err(ApiError::Conflict(format!(
+            "these bytes are already stored for this unit as run {} with different metadata; \
+             to store them with the new metadata an admin deletes that run first \
+             (DELETE /api/v1/runs/{})",
+            run.id, run.id
+        )));
+    }
+    Ok(answer(StatusCode::OK, &run.id, &run.job_id, &run.sha256))
+}
+
+/// Refuses an upload while the data folder's filesystem is below its
+/// free-space floor, before a byte of the body is read.
+fn check_free_space(st: &AppState) -> Result<(), ApiError> {
+    match available_bytes(&st.config.data_dir) {
+        Ok(free) if free < st.config.min_free_bytes => {
+            tracing::warn!(
+                free,
+                floor = st.config.min_free_bytes,
+                "upload refused: storage below its free-space floor"
+            );
+            Err(ApiError::storage_full())
+        }
+        Ok(_) => Ok(()),
+        Err(e) => Err(ApiError::from(e)),
+    }
 }
 
 pub fn queue_full() -> ApiError {
@@ -353,11 +407,15 @@ pub async fn upload(
             retry_after_s: 10,
         });
     }
-    // Checked before reading the body so a full queue costs the station
-    // nothing; checked again in the insert transaction.
+    // Checked before reading the body so a full queue or disk costs the
+    // station nothing; checked again in the insert transaction.
     if st.store.queue_depth().await? >= st.config.max_queue {
         st.metrics.upload(UploadOutcome::Refused);
         return Err(queue_full());
+    }
+    if let Err(e) = check_free_space(&st) {
+        st.metrics.upload(UploadOutcome::Refused);
+        return Err(e);
     }
     let _permit = st
         .uploads
@@ -370,6 +428,12 @@ pub async fn upload(
         .and_then(|v| v.to_str().ok())
         .is_some_and(|ct| ct.to_ascii_lowercase().starts_with("multipart/form-data"));
     let limit = st.config.max_body_bytes;
+    // A stalled or trickling body ends with an error, freeing the slot.
+    let (parts, body) = req.into_parts();
+    let req = Request::from_parts(
+        parts,
+        axum::body::Body::from_stream(paced(body, st.config.upload_pace)),
+    );
     let outcome = if multipart {
         receive_multipart(&st, &serial, req).await
     } else {
@@ -401,7 +465,7 @@ pub async fn upload(
             return Err(e);
         }
     };
-    store_run(&st, &serial, meta, ingested).await
+    store_run(&st, &auth, &serial, meta, ingested).await
 }
 
 async fn receive_multipart(
@@ -451,15 +515,20 @@ async fn receive_multipart(
     if data.checked.is_none() {
         // The data came before the metadata: it was spooled unchecked and
         // is validated from the temp file now.
-        let (path, format, rate, limits) = (
+        let (path, format, rate, limits, max_cpu) = (
             data.temp.path.clone(),
             meta.format,
             meta.sample_rate_hz,
             read_limits(st),
+            st.config.upload_max_cpu,
         );
         let checked = tokio::task::spawn_blocking(move || {
             let file = std::fs::File::open(&path).map_err(SinkError::Io)?;
-            count_records(io::BufReader::new(file), format, rate, limits).map_err(SinkError::Data)
+            let budgeted = Budgeted {
+                inner: io::BufReader::new(file),
+                budget: CpuBudget::start(max_cpu),
+            };
+            count_records(budgeted, format, rate, limits).map_err(SinkError::Data)
         })
         .await
         .map_err(|e| ApiError::Internal(format!("validation task: {e}")))??;
@@ -470,15 +539,26 @@ async fn receive_multipart(
 
 async fn store_run(
     st: &AppState,
+    auth: &Auth,
     serial: &str,
     meta: RunMetadata,
     mut data: Ingested,
 ) -> Result<Response, ApiError> {
+    let (records, gzip) = data.checked.unwrap_or((0, false));
+    let span_s = records.saturating_sub(1) as f64 / meta.sample_rate_hz;
+    if span_s < MIN_RUN_SECONDS {
+        st.metrics.upload(UploadOutcome::Refused);
+        return Err(ApiError::Unprocessable(format!(
+            "the run spans {span_s:.2} s ({records} records at {} Hz): a calibration needs at \
+             least {MIN_RUN_SECONDS} s (two dwells of 20 s and a turn between them)",
+            meta.sample_rate_hz
+        )));
+    }
+    let metadata = serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?;
     if let Some(existing) = st.store.find_run_by_hash(serial, &data.sha256).await? {
         st.metrics.upload(UploadOutcome::Duplicate);
-        return Ok(existing_answer(&existing));
+        return existing_answer(auth, &existing, &metadata);
     }
-    let (records, gzip) = data.checked.unwrap_or((0, false));
     let run_id = uuid::Uuid::new_v4().to_string();
     let job_id = uuid::Uuid::new_v4().to_string();
     let ext = match (meta.format, gzip) {
@@ -517,10 +597,11 @@ async fn store_run(
         format: meta.format.to_string(),
         gzip,
         blob_path,
-        metadata: serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?,
+        metadata: metadata.clone(),
         recorded_at,
         uploaded_at: now_ms(),
         max_attempts: st.config.max_attempts,
+        uploaded_by: Some(auth.token_id.clone()),
     };
     // Until the rows commit, `data.temp` still owns the blob and removes it
     // on any early return; the startup sweep covers a crash here.
@@ -536,9 +617,16 @@ async fn store_run(
             tracing::info!(run = %run_id, job = %job_id, unit = serial, bytes = data.size, "run stored");
             Ok(answer(StatusCode::ACCEPTED, &run_id, &job_id, &data.sha256))
         }
-        InsertOutcome::Existing { run_id, job_id } => {
+        InsertOutcome::Existing { run_id, .. } => {
+            // Stored by a concurrent upload of the same bytes since the
+            // check above.
             st.metrics.upload(UploadOutcome::Duplicate);
-            Ok(answer(StatusCode::OK, &run_id, &job_id, &data.sha256))
+            let existing = st
+                .store
+                .get_run(&run_id)
+                .await?
+                .ok_or_else(|| ApiError::Internal(format!("run {run_id} vanished")))?;
+            existing_answer(auth, &existing, &metadata)
         }
         InsertOutcome::QueueFull => {
             st.metrics.upload(UploadOutcome::Refused);

@@ -593,6 +593,16 @@ pub(crate) fn estimate_scanned(
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CalibrationResult, CalibError> {
     let (opts, scan) = (ctx.opts, ctx.scan);
+    first_dwell(scan)?;
+    // One attitude observes the gravity and Earth-rate projections on one
+    // set of axes only: the filter would converge to the prior and report
+    // it as a calibration.
+    let dwells = scan.dwells().count();
+    if dwells < 2 {
+        return Err(CalibError::Unusable(format!(
+            "the run holds {dwells} dwell: a calibration needs the unit at rest in at least two attitudes, with a turn between them"
+        )));
+    }
     let mut params = ErrorParameters::zero();
     let max_passes = opts.max_passes.max(1);
     let mut last: Option<Pass> = None;

@@ -270,23 +270,7 @@ impl JobRunner {
             return Ok(JobEnd::LeaseLost);
         }
         match joined {
-            Ok(Ok(done)) => {
-                let written = match done {
-                    Done::Calibration(result) => {
-                        self.store
-                            .complete_job(claim, &result, self.settings.on_inadequate)
-                            .await?
-                    }
-                    Done::Diagnosis(report) => {
-                        self.store.complete_diagnose_job(claim, &report).await?
-                    }
-                };
-                Ok(if written {
-                    JobEnd::Succeeded
-                } else {
-                    JobEnd::LeaseLost
-                })
-            }
+            Ok(Ok(done)) => self.store_product(claim, &done).await,
             Ok(Err(Failure::Cancelled)) => {
                 let done = match reason {
                     Some(StopReason::HandBack) => {
@@ -312,6 +296,61 @@ impl JobRunner {
                     "the estimator task was aborted"
                 };
                 self.fail(claim, what, true).await
+            }
+        }
+    }
+
+    /// Writes a finished job's product. A full disk does not fail the job:
+    /// the product is kept and the write retried, with backoff, while the
+    /// lease is renewed, until space returns, the lease is lost, or the
+    /// server hands its jobs back.
+    async fn store_product(&self, claim: &Claim, done: &Done) -> Result<JobEnd, JobError> {
+        let fence = &claim.fence;
+        // Never longer than a heartbeat period, so the lease stays renewed.
+        let longest = self.heartbeat_every();
+        let mut wait = Duration::from_millis(50).min(longest);
+        loop {
+            let written = match done {
+                Done::Calibration(result) => {
+                    self.store
+                        .complete_job(claim, result, self.settings.on_inadequate)
+                        .await
+                }
+                Done::Diagnosis(report) => self.store.complete_diagnose_job(claim, report).await,
+            };
+            match written {
+                Ok(true) => return Ok(JobEnd::Succeeded),
+                Ok(false) => return Ok(JobEnd::LeaseLost),
+                Err(e) if e.is_storage_full() => {
+                    self.metrics.storage_full_retry();
+                    tracing::warn!(job = %fence.job_id, error = %e, retry_in = ?wait,
+                        "storage full: the result is kept and its write retried");
+                }
+                Err(e) => return Err(e.into()),
+            }
+            tokio::select! {
+                _ = tokio::time::sleep(wait) => {}
+                _ = self.hand_back.cancelled() => {
+                    // The product is lost with the process; the job runs
+                    // again after the restart, its attempt not counted.
+                    return Ok(if self.store.release_job(fence).await? {
+                        JobEnd::HandedBack
+                    } else {
+                        JobEnd::LeaseLost
+                    });
+                }
+            }
+            wait = (wait * 2).min(longest);
+            let stage = "storing the result: storage full, retrying";
+            match self
+                .store
+                .heartbeat(fence, self.settings.lease, 1.0, stage)
+                .await
+            {
+                Ok(None) => return Ok(JobEnd::LeaseLost),
+                Ok(Some(_)) => {}
+                // Likely the same full disk: the lease has two more periods.
+                Err(e) => tracing::warn!(job = %fence.job_id, error = %e, "heartbeat failed"),
             }
         }
     }

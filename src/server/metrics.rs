@@ -16,6 +16,9 @@ struct Inner {
     uploads: [u64; 3],
     /// Per outcome (succeeded, failed, cancelled): bucket counts, sum, count.
     durations: [([u64; DURATION_BUCKETS_S.len()], f64, u64); 3],
+    /// Writes of a finished job's product refused by a full disk (each
+    /// retried).
+    storage_full_retries: u64,
 }
 
 /// How an upload ended.
@@ -46,6 +49,13 @@ impl Metrics {
 
     pub fn upload(&self, outcome: UploadOutcome) {
         self.inner.lock().expect("metrics lock").uploads[outcome as usize] += 1;
+    }
+
+    pub fn storage_full_retry(&self) {
+        self.inner
+            .lock()
+            .expect("metrics lock")
+            .storage_full_retries += 1;
     }
 
     pub fn job_finished(&self, outcome: JobOutcome, seconds: f64) {
@@ -116,6 +126,16 @@ impl Metrics {
                 "sinscal_job_duration_seconds_count{{outcome=\"{name}\"}} {count}"
             );
         }
+        let _ = writeln!(
+            s,
+            "# HELP sinscal_storage_full_retries_total Result writes refused by a full disk, retried."
+        );
+        let _ = writeln!(s, "# TYPE sinscal_storage_full_retries_total counter");
+        let _ = writeln!(
+            s,
+            "sinscal_storage_full_retries_total {}",
+            inner.storage_full_retries
+        );
         s
     }
 }

@@ -3,6 +3,7 @@
 //! it runs, so tests can bind port 0 and read the real port back), graceful
 //! shutdown, and the `token create` command.
 
+pub mod disk;
 pub mod metrics;
 
 use std::collections::BTreeMap;
@@ -16,6 +17,7 @@ use std::time::Duration;
 use tokio::net::TcpListener;
 use tokio::sync::{Notify, Semaphore};
 
+use crate::api::upload_guard::BodyPace;
 use crate::api::{self, auth, AppState};
 use crate::calib::EstimateOptions;
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
@@ -80,6 +82,31 @@ pub struct ServeArgs {
     #[arg(long, env = "SINSCAL_DIAGNOSE_INADEQUATE", default_value_t = true,
           action = clap::ArgAction::Set)]
     pub diagnose_inadequate: bool,
+    /// An upload whose body sends nothing for this long is refused (408)
+    /// and its slot freed, seconds.
+    #[arg(long, env = "SINSCAL_UPLOAD_IDLE_SECS", default_value_t = 30.0)]
+    pub upload_idle_secs: f64,
+    /// Least mean upload rate, bytes/s, enforced after the grace period.
+    #[arg(long, env = "SINSCAL_UPLOAD_MIN_RATE", default_value_t = 10_000)]
+    pub upload_min_rate: u64,
+    /// Seconds from the start of a body before the minimum rate applies.
+    #[arg(long, env = "SINSCAL_UPLOAD_RATE_GRACE_SECS", default_value_t = 10.0)]
+    pub upload_rate_grace_secs: f64,
+    /// CPU seconds one upload's validation may use (a 2 GiB CSV needs
+    /// about 20 s).
+    #[arg(long, env = "SINSCAL_UPLOAD_MAX_CPU_SECS", default_value_t = 120.0)]
+    pub upload_max_cpu_secs: f64,
+    /// Most comment and blank lines in an uploaded CSV.
+    #[arg(long, env = "SINSCAL_MAX_COMMENT_LINES", default_value_t = 10_000)]
+    pub max_comment_lines: u64,
+    /// Most decompressed bytes per compressed byte of a gzip upload
+    /// (checked past 16 MiB decompressed).
+    #[arg(long, env = "SINSCAL_MAX_EXPANSION_RATIO", default_value_t = 200)]
+    pub max_expansion_ratio: u64,
+    /// Free bytes the data folder's filesystem must keep: below it uploads
+    /// are answered 507 and /readyz 503.
+    #[arg(long, env = "SINSCAL_MIN_FREE_BYTES", default_value_t = 256 << 20)]
+    pub min_free_bytes: u64,
     /// JSON object of repeatability tolerances by parameter name
     /// (canonical units), replacing the defaults it names.
     #[arg(long, env = "SINSCAL_TOLERANCES")]
@@ -101,6 +128,16 @@ pub struct Config {
     pub retry_backoff: Duration,
     pub max_concurrent_uploads: usize,
     pub max_concurrent_requests: usize,
+    /// Idle timeout, minimum rate and grace of an upload body.
+    pub upload_pace: BodyPace,
+    /// CPU time one upload's validation may use.
+    pub upload_max_cpu: Duration,
+    /// Most comment and blank lines in an uploaded CSV.
+    pub max_comment_lines: u64,
+    /// Most decompressed bytes per compressed byte of a gzip upload.
+    pub max_expansion_ratio: u64,
+    /// Free bytes the data folder must keep (uploads 507, /readyz 503 below).
+    pub min_free_bytes: u64,
     /// Repeatability tolerance by parameter name, canonical units.
     pub tolerances: BTreeMap<String, f64>,
     pub estimate: EstimateOptions,
@@ -146,6 +183,15 @@ impl Config {
             retry_backoff: Duration::from_secs(2),
             max_concurrent_uploads: 16,
             max_concurrent_requests: 512,
+            upload_pace: BodyPace {
+                idle: Duration::from_secs(30),
+                min_bytes_per_s: 10_000,
+                grace: Duration::from_secs(10),
+            },
+            upload_max_cpu: Duration::from_secs(120),
+            max_comment_lines: 10_000,
+            max_expansion_ratio: 200,
+            min_free_bytes: 256 << 20,
             tolerances: default_tolerances(),
             estimate: EstimateOptions::default(),
             diagnose_inadequate: true,
@@ -179,6 +225,29 @@ impl Config {
             ));
         }
         c.shutdown_grace = Duration::from_secs_f64(a.shutdown_grace_secs);
+        let secs = |name: &str, v: f64, min: f64| {
+            if v.is_finite() && v >= min {
+                Ok(Duration::from_secs_f64(v))
+            } else {
+                Err(ServerError::Config(format!(
+                    "--{name} must be ≥ {min}, got {v}"
+                )))
+            }
+        };
+        c.upload_pace = BodyPace {
+            idle: secs("upload-idle-secs", a.upload_idle_secs, 0.1)?,
+            min_bytes_per_s: a.upload_min_rate,
+            grace: secs("upload-rate-grace-secs", a.upload_rate_grace_secs, 0.0)?,
+        };
+        c.upload_max_cpu = secs("upload-max-cpu-secs", a.upload_max_cpu_secs, 0.1)?;
+        c.max_comment_lines = a.max_comment_lines;
+        if a.max_expansion_ratio < 2 {
+            return Err(ServerError::Config(
+                "--max-expansion-ratio must be ≥ 2".into(),
+            ));
+        }
+        c.max_expansion_ratio = a.max_expansion_ratio;
+        c.min_free_bytes = a.min_free_bytes;
         if let Some(path) = &a.tolerances {
             let text =
                 std::fs::read(path).map_err(io_err(format!("reading {}", path.display())))?;
@@ -420,6 +489,15 @@ pub fn create_token(
     role: Role,
     label: Option<&str>,
 ) -> Result<String, ServerError> {
+    // A mistyped --data-dir must not create a new, empty database whose
+    // token works on no server.
+    let db = data_dir.join("sinscal.db");
+    if !db.is_file() {
+        return Err(ServerError::Config(format!(
+            "no database at {}: give the --data-dir the server runs with (it creates the database at its first start)",
+            db.display()
+        )));
+    }
     runtime()?.block_on(async move {
         let store = open_store(data_dir, 1).await?;
         let (token, hash) = auth::new_token();

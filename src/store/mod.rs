@@ -16,6 +16,8 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::str::FromStr;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use sqlx::sqlite::{
@@ -40,12 +42,56 @@ const BUSY_TIMEOUT: Duration = Duration::from_secs(10);
 /// Errors of the storage layer.
 #[derive(Debug, thiserror::Error)]
 pub enum StoreError {
+    /// The disk (or quota) holding the database is full: SQLITE_FULL,
+    /// ENOSPC or EDQUOT. Transient: the write may succeed once space is
+    /// freed, and the writer connection stays usable.
+    #[error("storage full: {0}")]
+    StorageFull(String),
     #[error("database error: {0}")]
-    Db(#[from] sqlx::Error),
+    Db(sqlx::Error),
     #[error("database migration failed: {0}")]
     Migrate(#[from] sqlx::migrate::MigrateError),
     #[error("stored JSON is malformed: {0}")]
     Json(#[from] serde_json::Error),
+}
+
+/// SQLite's primary result code for "database or disk is full".
+const SQLITE_FULL: i64 = 13;
+
+/// Whether an I/O error means the disk or the quota is full.
+pub fn is_storage_full_io(e: &std::io::Error) -> bool {
+    matches!(e.raw_os_error(), Some(code) if code == ENOSPC || code == EDQUOT)
+}
+
+/// Linux errno values (stable ABI): no space left on device, disk quota
+/// exceeded.
+const ENOSPC: i32 = 28;
+const EDQUOT: i32 = 122;
+
+impl From<sqlx::Error> for StoreError {
+    fn from(e: sqlx::Error) -> Self {
+        let full = match &e {
+            sqlx::Error::Database(db) => db
+                .code()
+                .and_then(|c| c.parse::<i64>().ok())
+                // Extended result codes keep the primary code in the low byte.
+                .is_some_and(|c| c & 0xff == SQLITE_FULL),
+            sqlx::Error::Io(io) => is_storage_full_io(io),
+            _ => false,
+        };
+        if full {
+            StoreError::StorageFull(e.to_string())
+        } else {
+            StoreError::Db(e)
+        }
+    }
+}
+
+impl StoreError {
+    /// True for errors that say the disk is full (retry once space returns).
+    pub fn is_storage_full(&self) -> bool {
+        matches!(self, StoreError::StorageFull(_))
+    }
 }
 
 /// Milliseconds since the Unix epoch, the unit of every stored time.
@@ -58,6 +104,9 @@ pub fn now_ms() -> i64 {
 pub struct Store {
     read: SqlitePool,
     write: SqlitePool,
+    /// While set, every write transaction fails as if the disk were full:
+    /// the seam tests use where a small filesystem cannot be mounted.
+    simulate_full: Arc<AtomicBool>,
 }
 
 /// A bearer token's role.
@@ -120,6 +169,9 @@ pub struct RunRow {
     pub recorded_at: Option<i64>,
     pub run_time: i64,
     pub uploaded_at: i64,
+    /// The token that uploaded it (`None` for runs stored before uploaders
+    /// were recorded).
+    pub uploaded_by: Option<String>,
     pub job_id: String,
     /// `clear` or `needs_review` once calibrated (see [`Review`]).
     #[sqlx(default)]
@@ -209,6 +261,8 @@ pub struct NewRun {
     pub recorded_at: Option<i64>,
     pub uploaded_at: i64,
     pub max_attempts: i64,
+    /// The uploading token's id.
+    pub uploaded_by: Option<String>,
 }
 
 /// What `insert_run_and_job` did.
@@ -308,7 +362,67 @@ impl Store {
             .acquire_timeout(Duration::from_secs(30))
             .connect_with(connect_options(db_path).read_only(true))
             .await?;
-        Ok(Store { read, write })
+        Ok(Store {
+            read,
+            write,
+            simulate_full: Arc::new(AtomicBool::new(false)),
+        })
+    }
+
+    /// Makes every later write transaction fail with
+    /// [`StoreError::StorageFull`] (true) or behave again (false), as a
+    /// full disk would, for machines where tests cannot mount a small
+    /// filesystem. The failure is raised where `BEGIN IMMEDIATE` would be,
+    /// so callers take the same path as for SQLITE_FULL.
+    #[doc(hidden)]
+    pub fn simulate_storage_full(&self, on: bool) {
+        self.simulate_full.store(on, Ordering::SeqCst);
+    }
+
+    /// Starts a write transaction on the writer connection.
+    ///
+    /// When a write fails with SQLITE_FULL, SQLite may roll the transaction
+    /// back on its own; the pool's rollback on drop then finds no
+    /// transaction, fails, and sqlx keeps counting one open, so every later
+    /// `BEGIN` on that connection is refused ("non-zero transaction
+    /// depth"). Such a connection is closed here (SQLite rolls back
+    /// whatever it still holds) and a fresh one opened, so one failed write
+    /// never wedges the writer.
+    async fn begin_write(&self) -> Result<sqlx::Transaction<'static, sqlx::Sqlite>, StoreError> {
+        if self.simulate_full.load(Ordering::SeqCst) {
+            return Err(StoreError::StorageFull(
+                "database or disk is full (simulated)".into(),
+            ));
+        }
+        match self.write.begin_with("BEGIN IMMEDIATE").await {
+            Err(sqlx::Error::InvalidSavePointStatement) => {
+                let conn = self.write.acquire().await?;
+                if sqlx::Connection::is_in_transaction(&*conn) {
+                    tracing::warn!(
+                        "writer connection left inside a failed transaction: reopening it"
+                    );
+                    let _ = conn.close().await;
+                }
+                Ok(self.write.begin_with("BEGIN IMMEDIATE").await?)
+            }
+            other => Ok(other?),
+        }
+    }
+
+    /// A write that must reach the database file (one row rewritten), for
+    /// the readiness probe: fails while the disk is full or the writer is
+    /// unusable.
+    pub async fn write_probe(&self) -> Result<(), StoreError> {
+        let mut tx = self.begin_write().await?;
+        sqlx::query(
+            "INSERT INTO write_probe (id, checked_at) VALUES (1, ?)
+             ON CONFLICT (id) DO UPDATE SET checked_at = excluded.checked_at",
+        )
+        .bind(now_ms())
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(())
     }
 
     pub async fn close(&self) {
@@ -354,7 +468,7 @@ impl Store {
     /// Inserts the first admin token unless any token exists, atomically, so
     /// two processes starting together cannot both create one.
     pub async fn insert_first_token(&self, id: &str, hash: &str) -> Result<bool, StoreError> {
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         let n: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM tokens")
             .fetch_one(&mut *tx)
             .await?;
@@ -436,7 +550,7 @@ impl Store {
         new: &NewRun,
         max_queue: i64,
     ) -> Result<InsertOutcome, StoreError> {
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         let existing = sqlx::query(
             "SELECT r.id, j.id FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
@@ -498,7 +612,7 @@ impl Store {
     /// is running; `Ok(None)` when there is no such run; else the blob path
     /// to remove.
     pub async fn delete_run(&self, id: &str) -> Result<Result<Option<String>, String>, StoreError> {
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         let blob: Option<String> = sqlx::query_scalar("SELECT blob_path FROM runs WHERE id = ?")
             .bind(id)
             .fetch_optional(&mut *tx)
@@ -558,7 +672,7 @@ impl Store {
     /// Returns the job afterwards, `None` if there is none.
     pub async fn cancel_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
         let now = now_ms();
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         sqlx::query(
             "UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1
              WHERE id = ? AND state = 'queued'",
@@ -589,7 +703,7 @@ impl Store {
         lease: Duration,
     ) -> Result<Option<Claim>, StoreError> {
         let now = now_ms();
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         sqlx::query(
             "UPDATE jobs SET state = 'cancelled', finished_at = ?1, lease_owner = NULL, lease_expires_at = NULL
              WHERE state = 'running' AND lease_expires_at < ?1 AND cancel_requested = 1",
@@ -685,7 +799,7 @@ impl Store {
         max_queue: i64,
     ) -> Result<DiagnoseQueued, StoreError> {
         let now = now_ms();
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         let exists: Option<i64> = sqlx::query_scalar("SELECT 1 FROM runs WHERE id = ?")
             .bind(run_id)
             .fetch_optional(&mut *tx)
@@ -736,7 +850,7 @@ impl Store {
         let now = now_ms();
         let fence = &claim.fence;
         let report_json = serde_json::to_string(report)?;
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         if !mark_succeeded(&mut tx, fence, now).await? {
             tx.rollback().await?;
             return Ok(false);
@@ -771,7 +885,7 @@ impl Store {
         let now = now_ms();
         let fence = &claim.fence;
         let result_json = serde_json::to_string(result)?;
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         if !mark_succeeded(&mut tx, fence, now).await? {
             tx.rollback().await?;
             return Ok(false);
@@ -1035,7 +1149,7 @@ impl Store {
         new: &NewRun,
         parameters: &BTreeMap<String, ParameterEstimate>,
     ) -> Result<(), StoreError> {
-        let mut tx = self.write.begin_with("BEGIN IMMEDIATE").await?;
+        let mut tx = self.begin_write().await?;
         let run_time = new.recorded_at.unwrap_or(new.uploaded_at);
         insert_unit_and_run(&mut tx, new).await?;
         sqlx::query(
@@ -1170,8 +1284,8 @@ async fn insert_unit_and_run(
         .await?;
     sqlx::query(
         "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
-                           metadata, recorded_at, run_time, uploaded_at)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                           metadata, recorded_at, run_time, uploaded_at, uploaded_by)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
     )
     .bind(&new.run_id)
     .bind(&new.unit_serial)
@@ -1185,6 +1299,7 @@ async fn insert_unit_and_run(
     .bind(new.recorded_at)
     .bind(new.recorded_at.unwrap_or(new.uploaded_at))
     .bind(new.uploaded_at)
+    .bind(&new.uploaded_by)
     .execute(&mut **tx)
     .await?;
     Ok(())

@@ -45,7 +45,16 @@ pub async fn spawn_app(workers: usize) -> TestApp {
 }
 
 pub async fn spawn_app_with(workers: usize, tweak: impl FnOnce(&mut Config)) -> TestApp {
-    let data_dir = tempfile::tempdir().expect("temp dir");
+    spawn_app_in(tempfile::tempdir().expect("temp dir"), workers, tweak).await
+}
+
+/// A server whose data folder is `data_dir` (e.g. a small filesystem
+/// mounted there).
+pub async fn spawn_app_in(
+    data_dir: tempfile::TempDir,
+    workers: usize,
+    tweak: impl FnOnce(&mut Config),
+) -> TestApp {
     let mut config = test_config(data_dir.path(), workers);
     tweak(&mut config);
     let app = Application::build(config).await.expect("build app");

@@ -9,6 +9,16 @@ use super::error::{Column, DataError, Position};
 /// Largest accepted relative deviation of a time step from 1/sample_rate_hz.
 pub const STEP_TOLERANCE: f64 = 0.01;
 
+/// Largest accepted relative deviation of the mean step (time since the
+/// first record over the steps taken) from 1/sample_rate_hz. A unit's
+/// clock is good to a few parts in 10⁵; a step tolerance of 1 % alone lets
+/// a run at 100.5 Hz pass as 100 Hz and then fail in the estimator.
+pub const MEAN_RATE_TOLERANCE: f64 = 0.001;
+
+/// Steps after which the mean step is checked: by then the jitter of single
+/// time stamps (within the step tolerance) averages below the mean tolerance.
+const MEAN_RATE_AFTER_STEPS: u64 = 1000;
+
 /// Column names of the increments kind, in file order.
 pub(crate) const INCREMENT_COLUMNS: [&str; 7] = ["t", "dthx", "dthy", "dthz", "dvx", "dvy", "dvz"];
 /// Column names of the rates kind, in file order.
@@ -41,6 +51,8 @@ pub(crate) fn first_non_finite(values: &[f64; 7]) -> Option<usize> {
 pub(crate) struct Timing {
     nominal: f64,
     previous: Option<f64>,
+    first: f64,
+    steps: u64,
 }
 
 impl Timing {
@@ -51,6 +63,8 @@ impl Timing {
         Ok(Timing {
             nominal: 1.0 / sample_rate_hz,
             previous: None,
+            first: 0.0,
+            steps: 0,
         })
     }
 
@@ -86,6 +100,23 @@ impl Timing {
                     nominal: self.nominal,
                 });
             }
+            self.steps += 1;
+            if self.steps >= MEAN_RATE_AFTER_STEPS {
+                let span = t - self.first;
+                let expected = self.steps as f64 * self.nominal;
+                if (span - expected).abs() > MEAN_RATE_TOLERANCE * expected {
+                    return Err(DataError::MeanRate {
+                        at: at(),
+                        steps: self.steps,
+                        span,
+                        expected,
+                        sample_rate_hz: 1.0 / self.nominal,
+                        mean_rate_hz: self.steps as f64 / span,
+                    });
+                }
+            }
+        } else {
+            self.first = t;
         }
         self.previous = Some(t);
         Ok(())
@@ -138,6 +169,30 @@ mod tests {
         timing.accept(1.0, line(1)).expect("first");
         timing.accept(1.00991, line(2)).expect("0.9 % short");
         timing.accept(1.01996, line(3)).expect("0.5 % long");
+    }
+
+    #[test]
+    fn a_clock_half_a_percent_fast_is_refused_once_the_mean_step_shows_it() {
+        // 100.5 Hz data under 100 Hz metadata: every step is 0.5 % short,
+        // inside the step tolerance, but the mean gives it away.
+        let mut timing = Timing::new(100.0).unwrap();
+        let mut refused_at = None;
+        for k in 0..5000u64 {
+            if let Err(e) = timing.accept(k as f64 / 100.5, line(k + 2)) {
+                assert!(matches!(e, DataError::MeanRate { .. }), "{e}");
+                refused_at = Some(k);
+                break;
+            }
+        }
+        assert_eq!(refused_at, Some(MEAN_RATE_AFTER_STEPS));
+        // The exact rate, with alternating jitter of 0.9 % of a step, passes.
+        let mut timing = Timing::new(100.0).unwrap();
+        for k in 0..5000u64 {
+            let jitter = if k % 2 == 0 { 0.0045 } else { -0.0045 };
+            timing
+                .accept((k as f64 + jitter) / 100.0, line(k + 2))
+                .unwrap();
+        }
     }
 
     #[test]

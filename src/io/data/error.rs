@@ -4,7 +4,7 @@ use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
-use super::check::{INCREMENT_COLUMNS, RATE_COLUMNS, STEP_TOLERANCE};
+use super::check::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
 
 /// Where in a data file something went wrong.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -199,6 +199,55 @@ pub enum DataError {
         limit: u64,
     },
 
+    /// More comment and blank lines than
+    /// [`ReadLimits::max_skipped_lines`](super::ReadLimits) allows.
+    #[error("line {line}: more than {limit} comment or blank lines")]
+    TooManySkippedLines {
+        /// The line reached.
+        line: u64,
+        /// The limit, lines.
+        limit: u64,
+    },
+
+    /// A gzip stream expanding more than
+    /// [`ReadLimits::max_expansion_ratio`](super::ReadLimits) allows.
+    #[error("line {line}: gzip data expands more than {limit}-fold (a compression bomb?)")]
+    ExpansionRatio {
+        /// The line reached.
+        line: u64,
+        /// The limit, decompressed bytes per compressed byte.
+        limit: u64,
+    },
+
+    /// Bytes after the last complete gzip member that are not gzip data.
+    #[error("line {line}: the gzip data is followed by bytes that are not gzip data")]
+    TrailingGzipGarbage {
+        /// The line reached.
+        line: u64,
+    },
+
+    /// The time steps average away from 1/sample_rate_hz: each step is
+    /// within the per-step tolerance, but the run's clock disagrees with
+    /// the metadata's rate.
+    #[error(
+        "{at}: {steps} steps span {span} s where the sample rate {sample_rate_hz} Hz gives {expected} s: the data's mean rate is {mean_rate_hz:.4} Hz, more than {} % off (wrong sample_rate_hz in the metadata?)",
+        MEAN_RATE_TOLERANCE * 100.0
+    )]
+    MeanRate {
+        /// The line or record.
+        at: Position,
+        /// Steps since the first record.
+        steps: u64,
+        /// Time since the first record, s.
+        span: f64,
+        /// steps / sample_rate_hz, s.
+        expected: f64,
+        /// The metadata's rate, Hz.
+        sample_rate_hz: f64,
+        /// steps / span, Hz.
+        mean_rate_hz: f64,
+    },
+
     /// The gzip stream ends before its end marker: a cut-off upload or copy.
     #[error("line {line}: gzip data ends unexpectedly (truncated file)")]
     TruncatedGzip {
@@ -243,11 +292,15 @@ impl DataError {
             | DataError::NotNumeric { line, .. }
             | DataError::LineTooLong { line, .. }
             | DataError::TruncatedGzip { line }
+            | DataError::TooManySkippedLines { line, .. }
+            | DataError::ExpansionRatio { line, .. }
+            | DataError::TrailingGzipGarbage { line }
             | DataError::CorruptGzip { line, .. } => Some(Position::Line(*line)),
             DataError::Io { at, .. }
             | DataError::NonFinite { at, .. }
             | DataError::TimeNotIncreasing { at, .. }
             | DataError::TimeStep { at, .. }
+            | DataError::MeanRate { at, .. }
             | DataError::TooLarge { at, .. } => Some(*at),
             DataError::TrailingBytes { record, .. } => Some(Position::Record {
                 number: *record,

@@ -67,6 +67,16 @@ pub struct ReadLimits {
     /// Longest CSV line accepted, in bytes without its line end (`\n` or
     /// `\r\n`). Applies to comments and the header as well.
     pub max_line_bytes: usize,
+    /// Most comment and blank lines a CSV file may hold. `None`: no limit.
+    /// They cost decompression and scanning but carry no data, so a server
+    /// bounds them: a stream of comments is the cheapest way to make a
+    /// small gzip file expensive.
+    pub max_skipped_lines: Option<u64>,
+    /// Most decompressed bytes per compressed byte of a gzip stream,
+    /// checked once more than 16 MiB have been decompressed. `None`: no
+    /// limit. CSV of sensor data compresses a few-fold; a bomb, a
+    /// thousandfold.
+    pub max_expansion_ratio: Option<u64>,
 }
 
 impl ReadLimits {
@@ -80,6 +90,8 @@ impl Default for ReadLimits {
         ReadLimits {
             max_decompressed_bytes: None,
             max_line_bytes: Self::DEFAULT_MAX_LINE_BYTES,
+            max_skipped_lines: None,
+            max_expansion_ratio: None,
         }
     }
 }

@@ -14,7 +14,7 @@ use super::check::{column, first_non_finite, to_record, Timing};
 use super::csv::{self, FieldError, HeaderError};
 use super::error::{excerpt, DataError, Position};
 use super::format::{DataFormat, ReadLimits};
-use super::source::Source;
+use super::source::{ExpansionExceeded, Source, TrailingGarbage};
 
 /// Reads a run's records from a CSV (plain or gzip) or f64le stream,
 /// checking each one, without ever holding more than a fixed-size window of
@@ -47,6 +47,9 @@ pub struct RecordReader<R: Read> {
     header_line: u64,
     /// Records yielded so far.
     records: u64,
+    /// CSV: comment and blank lines seen, and their limit.
+    skipped: u64,
+    max_skipped: Option<u64>,
     done: bool,
 }
 
@@ -92,16 +95,18 @@ impl<R: Read> RecordReader<R> {
     ) -> Result<Self, DataError> {
         let timing = Timing::new(sample_rate_hz)?;
         let csv = format == DataFormat::Csv;
-        let source = Source::new(reader, csv).map_err(|source| DataError::Io {
-            at: if csv {
-                Position::Line(1)
-            } else {
-                Position::Record {
-                    number: 1,
-                    byte_offset: 0,
-                }
-            },
-            source,
+        let source = Source::new(reader, csv, limits.max_expansion_ratio).map_err(|source| {
+            DataError::Io {
+                at: if csv {
+                    Position::Line(1)
+                } else {
+                    Position::Record {
+                        number: 1,
+                        byte_offset: 0,
+                    }
+                },
+                source,
+            }
         })?;
         let max_pending = if csv {
             // A line, its `\r\n`, and one byte to see that it is too long.
@@ -120,6 +125,8 @@ impl<R: Read> RecordReader<R> {
             lines: 0,
             header_line: 0,
             records: 0,
+            skipped: 0,
+            max_skipped: limits.max_skipped_lines,
             done: false,
         };
         if csv {
@@ -202,6 +209,20 @@ impl<R: Read> RecordReader<R> {
         }
     }
 
+    /// Counts a comment or blank line against the limit.
+    #[inline]
+    fn skip_line(&mut self, consume: usize) -> Result<(), DataError> {
+        self.window.consume(consume);
+        self.skipped += 1;
+        match self.max_skipped {
+            Some(limit) if self.skipped > limit => Err(DataError::TooManySkippedLines {
+                line: self.lines,
+                limit,
+            }),
+            _ => Ok(()),
+        }
+    }
+
     fn read_header(&mut self) -> Result<DataKind, DataError> {
         loop {
             let Some((len, consume)) = self.next_line()? else {
@@ -213,7 +234,7 @@ impl<R: Read> RecordReader<R> {
                 line = line.strip_prefix(csv::UTF8_BOM).unwrap_or(line);
             }
             if csv::is_skippable(line) {
-                self.window.consume(consume);
+                self.skip_line(consume)?;
                 continue;
             }
             let line_no = self.lines;
@@ -248,7 +269,9 @@ impl<R: Read> RecordReader<R> {
             self.lines += 1;
             let line = csv::strip_cr(&self.window.pending()[..len]);
             if csv::is_skippable(line) {
-                self.window.consume(consume);
+                if let Err(e) = self.skip_line(consume) {
+                    return Some(Err(e));
+                }
                 continue;
             }
             let record = csv_record(line, self.lines, self.kind, &mut self.timing);
@@ -347,6 +370,23 @@ fn csv_fill_error(e: FillError, line: u64, gzip: bool) -> DataError {
             at: Position::Line(line),
             limit,
         },
+        FillError::Io(source)
+            if gzip && source.get_ref().is_some_and(|e| e.is::<TrailingGarbage>()) =>
+        {
+            DataError::TrailingGzipGarbage { line }
+        }
+        FillError::Io(source)
+            if gzip
+                && source
+                    .get_ref()
+                    .is_some_and(|e| e.is::<ExpansionExceeded>()) =>
+        {
+            let limit = source
+                .get_ref()
+                .and_then(|e| e.downcast_ref::<ExpansionExceeded>())
+                .map_or(0, |e| e.limit);
+            DataError::ExpansionRatio { line, limit }
+        }
         FillError::Io(source) if gzip => match source.kind() {
             io::ErrorKind::UnexpectedEof => DataError::TruncatedGzip { line },
             io::ErrorKind::InvalidInput | io::ErrorKind::InvalidData => {
