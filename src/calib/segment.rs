@@ -410,3 +410,40 @@ pub fn in_dwell(segments: &[RunSegment], t: f64) -> bool {
         .get(i)
         .is_some_and(|s| s.kind == SegmentKind::Dwell && s.t_start <= t && t <= s.t_end)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records at `rate_hz` from `t0` for `span_s`, sensing `f_b` and no
+    /// rotation.
+    fn steady(t0: f64, span_s: f64, rate_hz: f64, f_b: [f64; 3]) -> Vec<Record> {
+        let dt = 1.0 / rate_hz;
+        (1..=(span_s * rate_hz).round() as usize)
+            .map(|k| Record {
+                t: t0 + k as f64 * dt,
+                dtheta: [0.0; 3],
+                dv: f_b.map(|f| f * dt),
+            })
+            .collect()
+    }
+
+    /// A unit reading 1.04 g at rest is still; lifted for a second without
+    /// turning (its rate stays zero) it is moving, and the lift parts two
+    /// dwells.
+    #[test]
+    fn rest_is_found_by_steadiness_and_a_lift_without_turning_is_motion() {
+        let rest = [0.3, -0.2, 10.2];
+        let lifted = [0.3, -0.2, 10.9];
+        let mut records = steady(0.0, 30.0, 50.0, rest);
+        records.extend(steady(30.0, 1.0, 50.0, lifted));
+        records.extend(steady(31.0, 30.0, 50.0, rest));
+        let mut seg = Segmenter::new(DetectOptions::default(), 50.0, 9.79);
+        records.iter().for_each(|r| seg.push(r));
+        let kinds: Vec<_> = seg.finish().segments.iter().map(|s| s.kind).collect();
+        assert_eq!(
+            kinds,
+            [SegmentKind::Dwell, SegmentKind::Motion, SegmentKind::Dwell]
+        );
+    }
+}
