@@ -33,7 +33,7 @@ const GROUPS: [Group; 7] = [
 /// The truth and start attitude (deg) of seed `seed` in `--raw` mode.
 fn raw_unit(seed: u64) -> (String, ErrorParameters, [f64; 3]) {
     let mut p = ErrorParameters::paper();
-    let heading = 40.0 + 97.0 * seed as f64;
+    let heading = (40.0 + 97.0 * seed as f64) % 360.0;
     match seed % 3 {
         1 => {
             p.si.iter_mut().for_each(|v| *v *= 10.0);
