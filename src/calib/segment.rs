@@ -1,12 +1,19 @@
 //! Finding the dwells and the motions of a run from its own data.
 //!
-//! Short blocks of records are classed as still or moving from the mean
-//! angular rate and the specific-force magnitude; runs of still blocks
+//! Short blocks of records are classed as still or moving from the
+//! *stillness* of the signals, not from their size: an uncalibrated unit
+//! does not read g at rest (a few mg of bias, 1 % of scale factor and
+//! quadratic terms move |f| by tenths of a m/s²), but whatever it reads at
+//! rest it reads steadily. A block is still when its mean specific force
+//! agrees with the still stretch it would extend, its mean angular rate is
+//! as small as a resting unit's (Earth rate plus a bias, whatever the
+//! calibration), and |f| is loosely gravity-sized. Runs of still blocks
 //! long enough to be a dwell become static segments, shrunk by a guard at
 //! both ends so that settling after a turn or a manual flip is never taken
-//! for rest. Nothing here relies on the scheme the run claims: a turntable
-//! whose axes miss the unit's centre, or a unit turned by hand, is found
-//! the same way.
+//! for rest. The same block decision picks the records the noise is
+//! measured on. Nothing here relies on the scheme the run claims: a
+//! turntable whose axes miss the unit's centre, or a unit turned by hand,
+//! is found the same way.
 
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -16,19 +23,32 @@ use crate::record::Record;
 
 /// Thresholds of the still/moving classification.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct DetectOptions {
     /// Block length over which rates are averaged, s.
     pub block_s: f64,
-    /// A block whose mean angular rate exceeds this is moving, deg/s
-    /// (Earth rate is 0.004 deg/s).
+    /// A block whose mean angular rate exceeds this is moving, deg/s.
+    /// At rest a gyro senses Earth rate (0.004 deg/s) plus its bias; even
+    /// an uncalibrated ring-laser gyro's 1 deg/h is 0.0003 deg/s, so this
+    /// bound does not depend on the unit's calibration. It is the only
+    /// sign of a turn about the vertical, which leaves f^b unchanged.
     pub rate_threshold_dps: f64,
-    /// A block whose mean specific-force magnitude differs from the local
-    /// gravity by more than this is moving, m/s².
-    pub force_threshold_mps2: f64,
+    /// A block whose mean specific force differs by more than this from
+    /// the mean of the still stretch it would extend (or, after a motion,
+    /// from the block before) is moving, m/s². 0.02 m/s² is ten times the
+    /// block mean's noise at a tactical-grade 50 µg/√Hz, and a tilt of
+    /// 0.12°: a unit lifted, or creeping below the rate bound, is moving.
+    pub force_step_mps2: f64,
+    /// Loose bounds on |f| at rest as fractions of the local gravity: a
+    /// unit reading outside them is falling, shaken or broken, not still.
+    pub force_range_g: [f64; 2],
     /// Shortest still stretch taken as a dwell, s.
     pub min_dwell_s: f64,
     /// Time cut from each end of a still stretch, s.
     pub guard_s: f64,
+    /// Span at the run's start over which its motion is summarised for a
+    /// run that does not begin at rest, s.
+    pub start_summary_s: f64,
 }
 
 impl Default for DetectOptions {
@@ -36,9 +56,11 @@ impl Default for DetectOptions {
         DetectOptions {
             block_s: 0.1,
             rate_threshold_dps: 0.05,
-            force_threshold_mps2: 0.05,
+            force_step_mps2: 0.02,
+            force_range_g: [0.5, 2.0],
             min_dwell_s: 20.0,
             guard_s: 0.5,
+            start_summary_s: 5.0,
         }
     }
 }
@@ -111,6 +133,80 @@ impl Stretch {
     }
 }
 
+/// Sums of squared first differences of the increments, from which the
+/// white-noise densities follow (at rest the true increments are
+/// constant, so a difference is two draws of the noise).
+#[derive(Clone, Copy, Default)]
+struct DiffSums {
+    d2_theta: f64,
+    d2_v: f64,
+    n: usize,
+}
+
+impl DiffSums {
+    fn add(&mut self, other: &DiffSums) {
+        self.d2_theta += other.d2_theta;
+        self.d2_v += other.d2_v;
+        self.n += other.n;
+    }
+}
+
+/// Mean and spread of a quantity over blocks.
+#[derive(Clone, Copy, Default)]
+struct Moments {
+    n: usize,
+    sum: f64,
+    sum2: f64,
+}
+
+impl Moments {
+    fn add(&mut self, x: f64) {
+        self.n += 1;
+        self.sum += x;
+        self.sum2 += x * x;
+    }
+
+    fn mean_spread(&self) -> (f64, f64) {
+        let n = self.n.max(1) as f64;
+        let mean = self.sum / n;
+        (mean, (self.sum2 / n - mean * mean).max(0.0).sqrt())
+    }
+}
+
+/// What the unit did over the run's first seconds: the mean and the
+/// spread over blocks of the block-mean rate and specific force, so that a
+/// run refused for not starting at rest says what was seen.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StartActivity {
+    /// Span summarised, s.
+    pub span_s: f64,
+    /// Block length the means are taken over, s.
+    pub block_s: f64,
+    pub rate_mean_dps: f64,
+    pub rate_spread_dps: f64,
+    pub force_mean_mps2: f64,
+    pub force_spread_mps2: f64,
+}
+
+/// Noise densities measured over the still blocks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MeasuredNoise {
+    /// Angle random walk, rad/√s.
+    pub arw: f64,
+    /// Velocity random walk, m/s/√s.
+    pub vrw: f64,
+    /// Record differences it rests on (0: no still block).
+    pub n_differences: usize,
+}
+
+/// What a segmentation finds.
+#[derive(Clone, Debug)]
+pub struct Segmentation {
+    pub segments: Vec<RunSegment>,
+    pub noise: MeasuredNoise,
+    pub start: StartActivity,
+}
+
 /// Online segmentation: feed records in order, then [`Segmenter::finish`].
 /// Memory grows with the number of still/moving alternations, not with
 /// the number of records.
@@ -120,6 +216,14 @@ pub struct Segmenter {
     gravity: f64,
     block_len: usize,
     block: Stretch,
+    block_diffs: DiffSums,
+    prev: Option<Record>,
+    /// Mean specific force of the last closed block, m/s².
+    prev_block_f: Option<Vector3<f64>>,
+    still_diffs: DiffSums,
+    t_first: Option<f64>,
+    start_rate: Moments,
+    start_force: Moments,
     stretches: Vec<Stretch>,
 }
 
@@ -129,8 +233,16 @@ impl Segmenter {
             opts,
             dt: 1.0 / sample_rate_hz,
             gravity,
-            block_len: ((opts.block_s * sample_rate_hz).round() as usize).max(1),
+            // Two records at least, so that a block has a first difference.
+            block_len: ((opts.block_s * sample_rate_hz).round() as usize).max(2),
             block: Stretch::empty(),
+            block_diffs: DiffSums::default(),
+            prev: None,
+            prev_block_f: None,
+            still_diffs: DiffSums::default(),
+            t_first: None,
+            start_rate: Moments::default(),
+            start_force: Moments::default(),
             stretches: Vec::new(),
         }
     }
@@ -139,28 +251,64 @@ impl Segmenter {
         let b = &mut self.block;
         if b.n == 0 {
             b.t_start = r.t - self.dt;
+        } else if let Some(p) = &self.prev {
+            let d = &mut self.block_diffs;
+            d.d2_theta += (Vector3::from(r.dtheta) - Vector3::from(p.dtheta)).norm_squared();
+            d.d2_v += (Vector3::from(r.dv) - Vector3::from(p.dv)).norm_squared();
+            d.n += 1;
         }
+        self.t_first.get_or_insert(r.t - self.dt);
         b.t_end = r.t;
         b.n += 1;
         b.sum_dtheta += Vector3::from(r.dtheta);
         b.sum_dv += Vector3::from(r.dv);
+        self.prev = Some(*r);
         if b.n == self.block_len {
             self.close_block();
         }
     }
 
+    /// The one still/moving decision for a block with mean rate `omega_b`
+    /// and specific force `f_b`.
+    fn is_still(&self, omega_b: &Vector3<f64>, f_b: &Vector3<f64>) -> bool {
+        let o = &self.opts;
+        let force = f_b.norm();
+        let sized =
+            force > o.force_range_g[0] * self.gravity && force < o.force_range_g[1] * self.gravity;
+        // The reference is the still stretch this block would extend; after
+        // a motion, the block before (a turn or a lift changes f^b from
+        // block to block).
+        let reference = match self.stretches.last() {
+            Some(s) if s.still => Some(s.sum_dv / (s.n as f64 * self.dt)),
+            _ => self.prev_block_f,
+        };
+        let steady = reference.map_or(true, |f_ref| (f_b - f_ref).norm() < o.force_step_mps2);
+        omega_b.norm() < o.rate_threshold_dps.to_radians() && sized && steady
+    }
+
     fn close_block(&mut self) {
         let mut b = std::mem::replace(&mut self.block, Stretch::empty());
+        let diffs = std::mem::take(&mut self.block_diffs);
         if b.n == 0 {
             return;
         }
         let span = b.n as f64 * self.dt;
-        let rate = (b.sum_dtheta / span).norm();
-        let force = (b.sum_dv / span).norm();
-        b.still = rate < self.opts.rate_threshold_dps.to_radians()
-            && (force - self.gravity).abs() < self.opts.force_threshold_mps2;
+        let omega_b = b.sum_dtheta / span;
+        let f_b = b.sum_dv / span;
+        b.still = self.is_still(&omega_b, &f_b);
+        if b.still {
+            self.still_diffs.add(&diffs);
+        }
+        if self
+            .t_first
+            .is_some_and(|t0| b.t_start < t0 + self.opts.start_summary_s - 1e-9)
+        {
+            self.start_rate.add(omega_b.norm().to_degrees());
+            self.start_force.add(f_b.norm());
+        }
+        self.prev_block_f = Some(f_b);
         b.c_rot = rotvec_to_dcm(&b.sum_dtheta);
-        b.peak_rate = rate;
+        b.peak_rate = omega_b.norm();
         match self.stretches.last_mut() {
             Some(s) if s.still == b.still => s.absorb(&b),
             _ => self.stretches.push(b),
@@ -169,9 +317,37 @@ impl Segmenter {
 
     /// The segments: dwells (still stretches of at least `min_dwell_s`,
     /// less the guards) and the motions between them, in time order and
-    /// covering the run without gaps.
-    pub fn finish(mut self) -> Vec<RunSegment> {
+    /// covering the run without gaps; the noise measured over the still
+    /// blocks; the run's start summarised.
+    pub fn finish(mut self) -> Segmentation {
         self.close_block();
+        let d = self.still_diffs;
+        // E|Δ(noise)|² = 2·3·σ² per difference; σ = density·√Δt.
+        let density = |d2: f64| {
+            if d.n > 0 {
+                (d2 / (6.0 * d.n as f64) / self.dt).sqrt()
+            } else {
+                0.0
+            }
+        };
+        let noise = MeasuredNoise {
+            arw: density(d.d2_theta),
+            vrw: density(d.d2_v),
+            n_differences: d.n,
+        };
+        let (rate_mean_dps, rate_spread_dps) = self.start_rate.mean_spread();
+        let (force_mean_mps2, force_spread_mps2) = self.start_force.mean_spread();
+        let start = StartActivity {
+            span_s: self
+                .opts
+                .start_summary_s
+                .min(self.start_rate.n as f64 * self.block_len as f64 * self.dt),
+            block_s: self.block_len as f64 * self.dt,
+            rate_mean_dps,
+            rate_spread_dps,
+            force_mean_mps2,
+            force_spread_mps2,
+        };
         let mut merged: Vec<Stretch> = Vec::new();
         for s in &self.stretches {
             let mut s = *s;
@@ -219,7 +395,11 @@ impl Segmenter {
                 out[i + 1].t_start = out[i].t_end;
             }
         }
-        out
+        Segmentation {
+            segments: out,
+            noise,
+            start,
+        }
     }
 }
 
@@ -229,4 +409,41 @@ pub fn in_dwell(segments: &[RunSegment], t: f64) -> bool {
     segments
         .get(i)
         .is_some_and(|s| s.kind == SegmentKind::Dwell && s.t_start <= t && t <= s.t_end)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Records at `rate_hz` from `t0` for `span_s`, sensing `f_b` and no
+    /// rotation.
+    fn steady(t0: f64, span_s: f64, rate_hz: f64, f_b: [f64; 3]) -> Vec<Record> {
+        let dt = 1.0 / rate_hz;
+        (1..=(span_s * rate_hz).round() as usize)
+            .map(|k| Record {
+                t: t0 + k as f64 * dt,
+                dtheta: [0.0; 3],
+                dv: f_b.map(|f| f * dt),
+            })
+            .collect()
+    }
+
+    /// A unit reading 1.04 g at rest is still; lifted for a second without
+    /// turning (its rate stays zero) it is moving, and the lift parts two
+    /// dwells.
+    #[test]
+    fn rest_is_found_by_steadiness_and_a_lift_without_turning_is_motion() {
+        let rest = [0.3, -0.2, 10.2];
+        let lifted = [0.3, -0.2, 10.9];
+        let mut records = steady(0.0, 30.0, 50.0, rest);
+        records.extend(steady(30.0, 1.0, 50.0, lifted));
+        records.extend(steady(31.0, 30.0, 50.0, rest));
+        let mut seg = Segmenter::new(DetectOptions::default(), 50.0, 9.79);
+        records.iter().for_each(|r| seg.push(r));
+        let kinds: Vec<_> = seg.finish().segments.iter().map(|s| s.kind).collect();
+        assert_eq!(
+            kinds,
+            [SegmentKind::Dwell, SegmentKind::Motion, SegmentKind::Dwell]
+        );
+    }
 }
