@@ -4,19 +4,18 @@
 
 #![allow(dead_code)]
 
+// The test runs' site and schemes are the discrepancy workflow's.
+#[path = "../diagnosis_support/mod.rs"]
+mod diagnosis_support;
+pub use diagnosis_support::{both_ways, nine_plus_nine, site};
+
 use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::sources::SimSource;
 use sinscal::calib::{estimate, CalibrationResult, EstimateOptions, ModelCheck, RunInfo};
 use sinscal::model::effects::{BiasDrift, LeverArms};
 use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::sim::scheme::Step;
 use sinscal::sim::{Noise, Scheme, SimConfig};
-
-pub fn site() -> Site {
-    Site::new(28.2215, 112.9924, 50.0)
-}
 
 /// Navigation grade (the reference scenario's noise).
 pub fn navigation_grade() -> Noise {
@@ -32,11 +31,6 @@ pub fn tactical_grade() -> Noise {
     }
 }
 
-/// The reference scheme: the paper's 9+9 with its 600 s dwells.
-pub fn nine_plus_nine(dwell_s: f64) -> Scheme {
-    Scheme::builtin("ten-position-9+9", dwell_s).unwrap()
-}
-
 /// The 9+9 scheme turned by hand (SPEC §4): fast S-shaped flips about
 /// axes a few degrees off, the unit lifted and set down elsewhere.
 pub fn nine_plus_nine_by_hand(dwell_s: f64, seed: u64) -> Scheme {
@@ -46,25 +40,6 @@ pub fn nine_plus_nine_by_hand(dwell_s: f64, seed: u64) -> Scheme {
         &sinscal::sim::HandTurns::default(),
     )
     .unwrap()
-}
-
-/// The paper's ten positions, then each axis turned back a quarter and a
-/// half turn, so an asymmetric scale factor differs from a scale factor.
-pub fn both_ways(dwell_s: f64) -> Scheme {
-    let mut s = Scheme::builtin("ten-position", dwell_s).unwrap();
-    let text = format!(
-        r#"[{{"rotate": {{"axis": "x", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "y", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "z", "angle_deg": -90}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "x", "angle_deg": -180}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "y", "angle_deg": -180}}}}, {{"dwell_s": {d}}},
-            {{"rotate": {{"axis": "z", "angle_deg": -180}}}}, {{"dwell_s": {d}}}]"#,
-        d = dwell_s
-    );
-    let more: Vec<Step> = serde_json::from_str(&text).unwrap();
-    s.steps.extend(more);
-    s.name = "ten-position-both-ways".into();
-    s
 }
 
 /// A run of the paper's truth: `rate` Hz, a start a few tenths of a
