@@ -55,7 +55,9 @@ fn main() {
     let latitude: f64 = value(&args, "--latitude").unwrap_or(28.2215);
     let random = args.iter().any(|a| a == "--random");
     let turned = args.iter().any(|a| a == "--turned");
-    let flags = ["--dwell", "--rate", "--window", "--latitude"];
+    let turn_rate: Option<f64> = value(&args, "--turn-rate");
+    let per_seed = args.iter().any(|a| a == "--per-seed");
+    let flags = ["--dwell", "--rate", "--window", "--latitude", "--turn-rate"];
     let n: u64 = args
         .iter()
         .enumerate()
@@ -98,10 +100,20 @@ fn main() {
         } else {
             Noise::default_navigation_grade()
         };
+        let mut scheme = Scheme::builtin("ten-position-9+9", dwell).unwrap();
+        if let Some(r) = turn_rate {
+            // Fast turns, as by hand: the rate reached in a tenth of a turn.
+            for step in &mut scheme.steps {
+                if let sinscal::sim::scheme::Step::Rotate { rotate } = step {
+                    rotate.rate_dps = r;
+                    rotate.accel_dps2 = r * r / 9.0;
+                }
+            }
+        }
         let cfg = SimConfig {
             site,
             sample_rate_hz: rate,
-            scheme: Scheme::builtin("ten-position-9+9", dwell).unwrap(),
+            scheme,
             params: truth,
             effects: Effects::none(),
             noise,
@@ -127,10 +139,12 @@ fn main() {
             &AtomicBool::new(false),
         )
         .unwrap();
+        let mut seed_z2 = [0.0; 7];
         for (i, p) in PARAMETERS.iter().enumerate() {
             let g = GROUPS.iter().position(|g| *g == p.group).unwrap();
             let e = &res.parameters[p.name];
             let err = e.value - truth.canonical(i);
+            seed_z2[g] += (err / e.sigma).powi(2);
             z2[g] += (err / e.sigma).powi(2);
             sig[g] += e.sigma;
             worst[g] = worst[g].max(err.abs());
@@ -143,6 +157,10 @@ fn main() {
                     err / e.sigma
                 ));
             }
+        }
+        if per_seed {
+            // Sum of squared err/σ per family, one line per seed.
+            println!("seed {seed} z2 {seed_z2:?}");
         }
     }
     println!(

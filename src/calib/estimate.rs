@@ -130,6 +130,9 @@ pub fn prescan(
     let (mut blk_sum_th, mut blk_sum_v, mut blk_n) = (Vector3::zeros(), Vector3::zeros(), 0usize);
     let (mut blk_d2_th, mut blk_d2_v) = (0.0, 0.0);
     let (mut d2_th, mut d2_v, mut d_n) = (0.0, 0.0, 0usize);
+    // The last still block's sums wait for the next block's decision.
+    let mut pending: Option<(f64, f64, usize)> = None;
+    let (mut before_still, mut pending_still) = (false, false);
     for r in source.records()? {
         let r = r?;
         if n == 0 {
@@ -156,10 +159,22 @@ pub fn prescan(
             let span = blk_n as f64 * dt;
             let still = (blk_sum_th / span).norm() < detect.rate_threshold_dps.to_radians()
                 && ((blk_sum_v / span).norm() - g).abs() < detect.force_threshold_mps2;
+            // A block counts only between two still blocks: the block in
+            // which a turn starts or ends can pass the rule with a few
+            // records of motion in it, and one such difference outweighs
+            // hours of navigation-grade noise (σ came out up to 8× too
+            // large on runs whose turns did not start on a block boundary).
+            if let Some((d_th, d_v, d)) = pending.take() {
+                if before_still && still {
+                    d2_th += d_th;
+                    d2_v += d_v;
+                    d_n += d;
+                }
+            }
+            before_still = pending_still;
+            pending_still = still;
             if still {
-                d2_th += blk_d2_th;
-                d2_v += blk_d2_v;
-                d_n += blk_n - 1;
+                pending = Some((blk_d2_th, blk_d2_v, blk_n - 1));
             }
             (blk_sum_th, blk_sum_v, blk_n, blk_d2_th, blk_d2_v) =
                 (Vector3::zeros(), Vector3::zeros(), 0, 0.0, 0.0);
