@@ -9,7 +9,12 @@
 //! (k mod 5), so twenty seeds cover both ranges. `--dwell S` and
 //! `--rate HZ` shorten the run; `--known-noise` gives the filter the
 //! simulated densities instead of measuring them; `--window S` sets the
-//! propagation window.
+//! propagation window; `--random` draws a truth per seed (±2× the
+//! paper's), `--turned` starts each seed tilted up to 5° at its own
+//! heading, `--latitude DEG` moves the site, `--turn-rate DPS` makes every
+//! turn that fast, `--per-seed` prints each seed's Σ(err/σ)² per family.
+//! A dwell that is not a whole number of 0.1 s (e.g. 600.03) starts turns
+//! between the pre-scan's blocks, as on real runs.
 
 use std::sync::atomic::AtomicBool;
 
