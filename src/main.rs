@@ -129,6 +129,11 @@ struct PlanArgs {
     /// the reference point).
     #[arg(long)]
     zupt_in_motion: bool,
+    /// The unit's start attitude as `simulate --attitude-error` takes it:
+    /// rotation vector in n, degrees, "x,y,z" (a heading ψ is "0,0,ψ").
+    /// It matters for turns about navigation axes.
+    #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
+    attitude_error: Option<[f64; 3]>,
     /// Write the plan as JSON here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -350,6 +355,7 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
             gyro_arw_deg_rt_h: a.arw,
             accel_vrw_ug_rt_hz: a.vrw,
         },
+        initial_attitude_error_deg: a.attitude_error.unwrap_or([0.0; 3]),
     };
     let opts = EstimateOptions {
         zupt_in_motion: a.zupt_in_motion,

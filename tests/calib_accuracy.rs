@@ -129,6 +129,7 @@ fn reference_scenario_full_length_meets_table1_and_cross_check_agrees() {
                 gyro_arw_deg_rt_h: 0.0003,
                 accel_vrw_ug_rt_hz: 5.0,
             },
+            initial_attitude_error_deg: cfg.initial_attitude_error_deg,
         },
         &EstimateOptions::default(),
     )
@@ -274,6 +275,7 @@ fn plan_agrees_with_independent_covariance_analysis() {
             gyro_arw_deg_rt_h: 0.0003,
             accel_vrw_ug_rt_hz: 5.0,
         },
+        initial_attitude_error_deg: [0.0; 3],
     };
     let opts = EstimateOptions {
         zupt_in_motion: true,

@@ -3,6 +3,11 @@
 //! noise-free simulated run of an error-free unit with the noise densities
 //! imposed: the σ a Kalman filter reports depends on the motion and the
 //! noise model, not on the measured values.
+//!
+//! The motion includes the start attitude: a turn about a navigation axis
+//! (SPEC §4, `"frame": "nav"`) turns the unit about whatever body
+//! direction that axis has at the start, so the same scheme excites
+//! different parameters at another heading or tilt.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
@@ -22,6 +27,10 @@ pub struct PlanInput {
     pub site: Site,
     pub sample_rate_hz: f64,
     pub noise: NoiseDensity,
+    /// The unit's attitude at the start as `simulate` takes it: the
+    /// rotation vector φ in n, degrees, with C_b^n(0) = exp([φ×]) (a
+    /// heading of ψ is [0, 0, ψ]).
+    pub initial_attitude_error_deg: [f64; 3],
 }
 
 /// Predicted 1-σ of one parameter.
@@ -48,7 +57,7 @@ pub fn plan(input: &PlanInput, opts: &EstimateOptions) -> Result<Plan, CalibErro
         params: ErrorParameters::zero(),
         effects: Effects::none(),
         noise: Noise::default(),
-        initial_attitude_error_deg: [0.0; 3],
+        initial_attitude_error_deg: input.initial_attitude_error_deg,
         seed: 0,
     };
     let opts = EstimateOptions {
