@@ -16,6 +16,9 @@
 //! A dwell that is not a whole number of 0.1 s (e.g. 600.03) starts turns
 //! between the pre-scan's blocks, as on real runs.
 //!
+//! `--by-hand`: every turn a SPEC §4 flip (`Scheme::by_hand`, seeded by
+//! the run's seed).
+//!
 //! `--raw`: uncalibrated units at the same size, seeds 1…N (default 9) in
 //! turn paper truth × 10 (one sign), × 20 (mixed signs, 5° tilt, heading
 //! 40° + 97° per seed) and a random truth × 10 (mixed, up to 20×). Prints
@@ -95,6 +98,7 @@ fn main() {
     let turn_rate: Option<f64> = value(&args, "--turn-rate");
     let per_seed = args.iter().any(|a| a == "--per-seed");
     let raw = args.iter().any(|a| a == "--raw");
+    let by_hand = args.iter().any(|a| a == "--by-hand");
     let flags = ["--dwell", "--rate", "--window", "--latitude", "--turn-rate"];
     let n: u64 = args
         .iter()
@@ -153,6 +157,9 @@ fn main() {
                     rotate.accel_dps2 = r * r / 9.0;
                 }
             }
+        }
+        if by_hand {
+            scheme = Scheme::by_hand(&scheme, seed, &sinscal::sim::HandTurns::default()).unwrap();
         }
         let cfg = SimConfig {
             site,

@@ -23,7 +23,7 @@ fn main() {
     };
     let seeds = flag("--seeds").map_or(10, |n| n as u64);
     let clean = flag("--clean").map_or(20, |n| n as u64);
-    let with_effects = flag("--effects").map_or(true, |v| v != 0.0);
+    let with_effects = flag("--effects") != Some(0.0);
     let rate = flag("--rate").unwrap_or(20.0);
     let dwell = flag("--dwell").unwrap_or(600.0);
     let noise = if args.iter().any(|a| a == "--tactical") {

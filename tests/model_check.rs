@@ -154,6 +154,10 @@ fn findings_say_where_the_misfit_lies() {
     // A drifting bias also acts through the turns (it integrates over them
     // too), but the misfit is largest at rest.
     assert_eq!(c.findings[0].shape, Shape::Drift, "{}", c.summary);
-    assert!(c.summary.contains("velocity drift at rest"), "{}", c.summary);
+    assert!(
+        c.summary.contains("velocity drift at rest"),
+        "{}",
+        c.summary
+    );
     assert!(c.summary.contains("grows with time"), "{}", c.summary);
 }

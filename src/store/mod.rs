@@ -901,7 +901,7 @@ impl Store {
             document: &result_json,
         };
         insert_result(&mut tx, &stored).await?;
-        let adequate = result.model_check.as_ref().is_none_or(|c| c.adequate);
+        let adequate = result.model_check.as_ref().map_or(true, |c| c.adequate);
         let review = if adequate {
             Review::Clear
         } else {
