@@ -212,12 +212,14 @@ impl CheckAccumulator {
         let Some(Some(d)) = self.dwells.get_mut(segment) else {
             return Ok(());
         };
-        let l = Cholesky::new(innov.s).map(|c| c.l()).ok_or_else(|| {
-            super::CalibError::Numerical("innovation covariance is not positive definite".into())
-        })?;
-        let l_inv = l
-            .try_inverse()
-            .unwrap_or_else(|| Matrix3::from_diagonal(&l.diagonal().map(|v| 1.0 / v)));
+        // S = L Lᵀ; L⁻¹ whitens (a positive definite S has an invertible L).
+        let l_inv: Matrix3<f64> = Cholesky::new(innov.s)
+            .and_then(|c| c.l().try_inverse())
+            .ok_or_else(|| {
+                super::CalibError::Numerical(
+                    "innovation covariance is not positive definite".into(),
+                )
+            })?;
         let y_w = l_inv * innov.y_bar;
         let l_inv_d = DMatrix::from_column_slice(3, 3, l_inv.as_slice());
         let m_w = &l_inv_d * &innov.m;
