@@ -152,6 +152,8 @@ pub struct SegmentGap {
     pub gap_mps: [f64; 3],
     /// Its 1-σ under noise alone, m/s.
     pub sigma_mps: [f64; 3],
+    /// The segment's share of the step's χ² and of its expectation under
+    /// noise alone: summed over the segments they give the step's.
     pub chi2: f64,
     pub dof: f64,
 }
@@ -441,7 +443,6 @@ fn segment_gaps(fit: &GapFit, nodes: &Nodes, kinds: &[StretchKind], t0: f64) -> 
         };
         let r = fit.residual[k];
         let c = &fit.residual_cov[k];
-        let chi2: f64 = (0..6).map(|i| r[i] * r[i] / c[(i, i)].max(1e-300)).sum();
         let new = !matches!(out.last(), Some(s) if s.kind == name && s.index == index);
         if new {
             out.push(SegmentGap {
@@ -461,8 +462,13 @@ fn segment_gaps(fit: &GapFit, nodes: &Nodes, kinds: &[StretchKind], t0: f64) -> 
             s.gap_mps[i] += r[3 + i];
             s.sigma_mps[i] += c[(3 + i, 3 + i)];
         }
-        s.chi2 += chi2;
-        s.dof += 6.0 - (0..6).filter(|&i| c[(i, i)] <= 0.0).count() as f64;
+        // The stretch's share of the run's χ², in the run's own weight.
+        // Not each component over its own residual variance: the fitted
+        // node attitudes leave the attitude rows with a variance that is
+        // a difference of nearly equal numbers, zero or below it, and a
+        // rounding-sized residual over it gave χ² of 1e270.
+        s.chi2 += fit.stretch_chi2[k];
+        s.dof += fit.stretch_dof[k];
     }
     for s in &mut out {
         for v in &mut s.sigma_mps {
@@ -488,15 +494,7 @@ fn localise(
     for (k, kind) in kinds.iter().enumerate() {
         let r = fit.residual[k];
         let c = &fit.residual_cov[k];
-        let mut chi2 = 0.0;
-        let mut exp = 0.0;
-        for i in 0..6 {
-            let var = c[(i, i)];
-            if var > 0.0 {
-                chi2 += r[i] * r[i] / var;
-                exp += 1.0;
-            }
-        }
+        let (chi2, exp) = (fit.stretch_chi2[k], fit.stretch_dof[k]);
         for i in 0..3 {
             axis_num[i] += r[3 + i] * r[3 + i];
             axis_den[i] += c[(3 + i, 3 + i)].max(0.0);
