@@ -6,6 +6,8 @@
 mod diagnosis_support;
 
 use diagnosis_support::*;
+use sinscal::diagnose::candidates::{add_effect, library};
+use sinscal::diagnose::detect::DetectionThreshold;
 use sinscal::diagnose::DiagnoseReport;
 use sinscal::model::Effects;
 
@@ -113,4 +115,68 @@ fn report_numbers_are_finite_and_consistent() {
     let rep = run(&cfg);
     assert_eq!(rep.named, ["accel_delay"], "{}", rep.verdict);
     assert_sane(&rep);
+}
+
+/// The effects of `t`'s quantity at `factor` times its threshold, along
+/// its most visible direction.
+fn at_threshold(t: &DetectionThreshold, factor: f64) -> Effects {
+    let cand = library()
+        .into_iter()
+        .find(|c| c.name == t.candidate)
+        .unwrap();
+    let mut values = vec![0.0; cand.params.len()];
+    for (name, d) in t.params.iter().zip(&t.direction) {
+        let i = cand.params.iter().position(|p| &p.name == name).unwrap();
+        values[i] = factor * t.size * d;
+    }
+    let mut effects = Effects::none();
+    add_effect(&mut effects, cand.name, &values);
+    effects
+}
+
+#[test]
+fn an_effect_at_twice_the_reported_threshold_is_named() {
+    let seed = 121;
+    let clean = config(nine_plus_nine(300.0), Effects::none(), seed);
+    let rep = run(&clean);
+    assert_eq!(rep.verdict, "no significant effect");
+    assert_sane(&rep);
+    assert!(
+        rep.summary()
+            .contains("no significant effect; this run would have named a "),
+        "{}",
+        rep.summary()
+    );
+    // Every candidate, every unit among its parameters.
+    for cand in library() {
+        let mut units: Vec<&str> = cand.params.iter().map(|p| p.unit.as_str()).collect();
+        units.dedup();
+        for unit in units {
+            let t = rep
+                .detectable
+                .iter()
+                .find(|t| t.candidate == cand.name && t.unit == unit)
+                .unwrap_or_else(|| panic!("no threshold for {} in {unit}", cand.name));
+            assert!(t.size.is_finite() && t.size > 0.0, "{t:?}");
+            for &x in &t.per_parameter {
+                assert!(x.is_finite() && x >= t.size * (1.0 - 1e-9), "{t:?}");
+            }
+            let norm: f64 = t.direction.iter().map(|d| d * d).sum();
+            assert!((norm - 1.0).abs() < 1e-9, "{t:?}");
+        }
+    }
+    // The same noise with each quantity at twice its threshold.
+    let mut missed = Vec::new();
+    for t in &rep.detectable {
+        let cfg = config(nine_plus_nine(300.0), at_threshold(t, 2.0), seed);
+        let with = run_quiet(&cfg);
+        eprintln!(
+            "{} {} at 2x {:.4} {}: named {:?} ({})",
+            t.candidate, t.quantity, t.size, t.unit, with.named, with.verdict
+        );
+        if with.named.first() != Some(&t.effect) {
+            missed.push(format!("{}: {}", t.quantity, with.verdict));
+        }
+    }
+    assert!(missed.is_empty(), "{missed:#?}");
 }

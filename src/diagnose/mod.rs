@@ -23,6 +23,7 @@
 //! is the file-backed entry point.
 
 pub mod candidates;
+pub mod detect;
 pub mod gap;
 pub mod plot;
 pub mod reconstruct;
@@ -31,7 +32,7 @@ pub mod separate;
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 
-use nalgebra::Vector3;
+use nalgebra::{DMatrix, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::calib::estimate::{align_start, estimate_scanned, scan_run, PassContext};
@@ -218,6 +219,12 @@ pub struct DiagnoseReport {
     pub gap_excess_after: f64,
     pub z_before: f64,
     pub z_after: f64,
+    /// What the run could see: for every candidate, the smallest effect
+    /// it would have named (each quantity along its most visible
+    /// direction, and each parameter alone), judged when the selection
+    /// last scored the candidate.
+    #[serde(default)]
+    pub detectable: Vec<detect::DetectionThreshold>,
     /// The final calibration (SPEC §5 result with the effect parameters).
     pub calibration: CalibrationResult,
     /// The named effects in SPEC §3 JSON form.
@@ -238,6 +245,17 @@ impl DiagnoseReport {
         use std::fmt::Write;
         let mut o = String::new();
         let _ = writeln!(o, "verdict: {}", self.verdict);
+        if !self.detectable.is_empty() {
+            let seen = detect::describe(&self.detectable);
+            if self.named.is_empty() {
+                let _ = writeln!(o, "{}; this run would have named {seen}", self.verdict);
+            } else {
+                let _ = writeln!(
+                    o,
+                    "beyond the named effects this run would have named {seen}"
+                );
+            }
+        }
         let _ = writeln!(
             o,
             "gap RMS {:.3e} m/s before, {:.3e} m/s after; noise floor {:.3e} m/s; z {:.1} -> {:.1}",
@@ -664,6 +682,7 @@ pub fn diagnose(
         |named: &[usize]| -> Vec<usize> { named.iter().flat_map(|&c| lib.columns(c)).collect() };
     let first_fit = problem.fit(&[])?;
     let mut current = first_fit.clone();
+    let mut visibility: Vec<Option<detect::Visibility>> = vec![None; lib.candidates.len()];
     loop {
         let n_obs = current.n_obs() as f64;
         let significant = current.z() > opts.significance_sigma;
@@ -696,6 +715,20 @@ pub fn diagnose(
             .map(|(_, f)| f.chi2 / f.dof)
             .fold(f64::INFINITY, f64::min)
             .max(1.0);
+        for (c, fit) in &fits {
+            let pos: Vec<usize> = lib
+                .columns(*c)
+                .map(|col| fit.effects.iter().position(|&e| e == col))
+                .collect::<Option<_>>()
+                .ok_or_else(|| {
+                    DiagnoseError::Numerical("a candidate's column is missing".into())
+                })?;
+            visibility[*c] = Some(detect::Visibility {
+                cov: DMatrix::from_fn(pos.len(), pos.len(), |a, b| fit.theta_cov[(pos[a], pos[b])]),
+                dispersion,
+                n_obs,
+            });
+        }
         for (c, fit) in &fits {
             let cand = &lib.candidates[*c];
             let k = cand.params.len() as f64;
@@ -958,6 +991,13 @@ pub fn diagnose(
         open_loop_after: ol.iter().map(|x| x.2).collect(),
     };
 
+    let detectable = lib
+        .candidates
+        .iter()
+        .zip(&visibility)
+        .filter_map(|(cand, v)| v.as_ref().map(|v| (cand, v)))
+        .flat_map(|(cand, v)| detect::thresholds(cand, v, opts.bic_threshold))
+        .collect();
     let floor = first_fit.noise_floor_rms();
     let excess = |rms: f64| (rms * rms - floor * floor).max(0.0).sqrt();
     stage(progress, 1.0, "done");
@@ -978,6 +1018,7 @@ pub fn diagnose(
         gap_excess_after: excess(current.gap_rms()),
         z_before: first_fit.z(),
         z_after: current.z(),
+        detectable,
         segments_before: segment_gaps(&first_fit, &nodes, &kinds, t0),
         segments_after: segment_gaps(&current, &nodes, &kinds, t0),
         calibration,
