@@ -32,7 +32,7 @@ pub mod separate;
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::calib::estimate::{align_start, estimate_scanned, scan_run, PassContext};
@@ -220,9 +220,9 @@ pub struct DiagnoseReport {
     pub z_before: f64,
     pub z_after: f64,
     /// What the run could see: for every candidate, the smallest effect
-    /// it would have named (each quantity along its most visible
-    /// direction, and each parameter alone), judged when the selection
-    /// last scored the candidate.
+    /// it would have named, and not called ambiguous, beyond the named
+    /// effects (each quantity along its most visible direction, and each
+    /// parameter alone).
     #[serde(default)]
     pub detectable: Vec<detect::DetectionThreshold>,
     /// The final calibration (SPEC §5 result with the effect parameters).
@@ -324,7 +324,7 @@ impl Library {
         }
     }
 
-    fn columns(&self, c: usize) -> impl Iterator<Item = usize> {
+    fn columns(&self, c: usize) -> std::ops::Range<usize> {
         self.offset[c]..self.offset[c] + self.candidates[c].params.len()
     }
 }
@@ -682,7 +682,6 @@ pub fn diagnose(
         |named: &[usize]| -> Vec<usize> { named.iter().flat_map(|&c| lib.columns(c)).collect() };
     let first_fit = problem.fit(&[])?;
     let mut current = first_fit.clone();
-    let mut visibility: Vec<Option<detect::Visibility>> = vec![None; lib.candidates.len()];
     loop {
         let n_obs = current.n_obs() as f64;
         let significant = current.z() > opts.significance_sigma;
@@ -715,20 +714,6 @@ pub fn diagnose(
             .map(|(_, f)| f.chi2 / f.dof)
             .fold(f64::INFINITY, f64::min)
             .max(1.0);
-        for (c, fit) in &fits {
-            let pos: Vec<usize> = lib
-                .columns(*c)
-                .map(|col| fit.effects.iter().position(|&e| e == col))
-                .collect::<Option<_>>()
-                .ok_or_else(|| {
-                    DiagnoseError::Numerical("a candidate's column is missing".into())
-                })?;
-            visibility[*c] = Some(detect::Visibility {
-                cov: DMatrix::from_fn(pos.len(), pos.len(), |a, b| fit.theta_cov[(pos[a], pos[b])]),
-                dispersion,
-                n_obs,
-            });
-        }
         for (c, fit) in &fits {
             let cand = &lib.candidates[*c];
             let k = cand.params.len() as f64;
@@ -991,12 +976,26 @@ pub fn diagnose(
         open_loop_after: ol.iter().map(|x| x.2).collect(),
     };
 
-    let detectable = lib
+    // What the run could see, against the last step's dispersion: from
+    // one fit carrying every effect column, their joint information.
+    let all = problem.fit(&(0..lib.n).collect::<Vec<_>>())?;
+    let dispersion = steps
+        .last()
+        .and_then(|s| s.candidates.first())
+        .map_or((current.chi2 / current.dof).max(1.0), |c| c.dispersion);
+    let visibility =
+        detect::Visibility::from_covariance(&all.theta_cov, dispersion, current.n_obs() as f64);
+    let columns: Vec<detect::Column> = lib
         .candidates
         .iter()
-        .zip(&visibility)
-        .filter_map(|(cand, v)| v.as_ref().map(|v| (cand, v)))
-        .flat_map(|(cand, v)| detect::thresholds(cand, v, opts.bic_threshold))
+        .enumerate()
+        .map(|(c, candidate)| detect::Column {
+            candidate,
+            columns: lib.columns(c),
+        })
+        .collect();
+    let detectable = (0..lib.candidates.len())
+        .flat_map(|c| detect::thresholds(&columns, c, &named, &visibility, opts.bic_threshold))
         .collect();
     let floor = first_fit.noise_floor_rms();
     let excess = |rms: f64| (rms * rms - floor * floor).max(0.0).sqrt();
