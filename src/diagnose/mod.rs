@@ -977,14 +977,12 @@ pub fn diagnose(
     };
 
     // What the run could see, against the last step's dispersion: from
-    // one fit carrying every effect column, their joint information.
-    let all = problem.fit(&(0..lib.n).collect::<Vec<_>>())?;
+    // one fit carrying every effect column, their joint information. A
+    // failure there costs the thresholds, not the diagnosis.
     let dispersion = steps
         .last()
         .and_then(|s| s.candidates.first())
         .map_or((current.chi2 / current.dof).max(1.0), |c| c.dispersion);
-    let visibility =
-        detect::Visibility::from_covariance(&all.theta_cov, dispersion, current.n_obs() as f64);
     let columns: Vec<detect::Column> = lib
         .candidates
         .iter()
@@ -994,9 +992,24 @@ pub fn diagnose(
             columns: lib.columns(c),
         })
         .collect();
-    let detectable = (0..lib.candidates.len())
-        .flat_map(|c| detect::thresholds(&columns, c, &named, &visibility, opts.bic_threshold))
-        .collect();
+    let detectable = match problem.fit(&(0..lib.n).collect::<Vec<_>>()) {
+        Ok(all) => {
+            let visibility = detect::Visibility::from_covariance(
+                &all.theta_cov,
+                dispersion,
+                current.n_obs() as f64,
+            );
+            (0..lib.candidates.len())
+                .flat_map(|c| {
+                    detect::thresholds(&columns, c, &named, &visibility, opts.bic_threshold)
+                })
+                .collect()
+        }
+        Err(e) => {
+            warnings.push(format!("no detection thresholds: {e}"));
+            Vec::new()
+        }
+    };
     let floor = first_fit.noise_floor_rms();
     let excess = |rms: f64| (rms * rms - floor * floor).max(0.0).sqrt();
     stage(progress, 1.0, "done");
