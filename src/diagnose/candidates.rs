@@ -118,6 +118,21 @@ pub fn library() -> Vec<Candidate> {
     ]
 }
 
+/// What a threshold in `unit` of candidate `candidate` is of, as a
+/// reader says it ("a … ≥ 1 mm").
+pub fn quantity(candidate: &Candidate, unit: &str) -> &'static str {
+    match (candidate.name, unit) {
+        ("accel_lever_arm", _) => "lever arm along the accelerometers' axes",
+        ("accel_lever_arm_cross", _) => "lever arm across the accelerometers' axes",
+        ("gyro_g_sensitivity", _) => "g-sensitivity",
+        ("accel_delay", _) => "delay",
+        ("bias_drift", "deg/h/h") => "gyro drift",
+        ("bias_drift", _) => "accelerometer drift",
+        ("gyro_scale_asymmetry", _) => "scale-factor asymmetry",
+        _ => candidate.effect,
+    }
+}
+
 /// The SPEC §3 effects of candidate `candidate` with parameter values `values`
 /// (JSON units), added to `into`.
 pub fn add_effect(into: &mut Effects, candidate: &str, values: &[f64]) {

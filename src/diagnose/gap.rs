@@ -299,6 +299,9 @@ pub struct GapFit {
     pub theta_sigma: Vec<f64>,
     /// Correlation matrix of the fitted effect parameters.
     pub theta_corr: DMatrix<f64>,
+    /// Their covariance (signature sizes²), the base parameters, the
+    /// other effects and the attitudes profiled out.
+    pub theta_cov: DMatrix<f64>,
     /// Weighted residual cost of the data (χ²), and with the priors.
     pub chi2: f64,
     pub objective: f64,
@@ -307,6 +310,11 @@ pub struct GapFit {
     /// Residual per stretch (φ; δv) and its covariance under noise alone.
     pub residual: Vec<Vector6<f64>>,
     pub residual_cov: Vec<Matrix6<f64>>,
+    /// Each stretch's share of `chi2` (r_kᵀ Q_k⁻¹ r_k) and of `dof`
+    /// (its expectation): they sum to the totals, so a segment's χ² is
+    /// measured in the same weight as the run's.
+    pub stretch_chi2: Vec<f64>,
+    pub stretch_dof: Vec<f64>,
 }
 
 impl GapFit {
@@ -463,12 +471,15 @@ impl GapProblem {
         let mut dof = 0.0;
         let mut residual = Vec::with_capacity(self.stretches.len());
         let mut residual_cov = Vec::with_capacity(self.stretches.len());
+        let mut stretch_chi2 = Vec::with_capacity(self.stretches.len());
+        let mut stretch_dof = Vec::with_capacity(self.stretches.len());
         for (k, s) in self.stretches.iter().enumerate() {
             let l = design(k, s);
             let idx = local(k);
             let u_loc = DVector::from_iterator(idx.len(), idx.iter().map(|&i| u[i]));
             let r = &l * &u_loc + &s.d;
-            chi2 += (r.transpose() * &s.w * &r)[(0, 0)];
+            let chi2_k = (r.transpose() * &s.w * &r)[(0, 0)];
+            chi2 += chi2_k;
             let c_loc = DMatrix::from_fn(idx.len(), idx.len(), |a, b| cov[(idx[a], idx[b])]);
             let hc = &l * c_loc * l.transpose();
             let mut rc = s.q;
@@ -478,7 +489,10 @@ impl GapProblem {
                 }
             }
             let rc_d = DMatrix::from_column_slice(6, 6, rc.as_slice());
-            dof += (&s.w * rc_d).trace();
+            let dof_k = (&s.w * rc_d).trace();
+            dof += dof_k;
+            stretch_chi2.push(chi2_k);
+            stretch_dof.push(dof_k);
             residual.push(Vector6::from_iterator(r.iter().copied()));
             residual_cov.push(rc);
         }
@@ -490,6 +504,7 @@ impl GapProblem {
         let theta_corr = DMatrix::from_fn(n_e, n_e, |a, b| {
             cov[(n_p + a, n_p + b)] / (sd(n_p + a) * sd(n_p + b)).max(f64::MIN_POSITIVE)
         });
+        let theta_cov = DMatrix::from_fn(n_e, n_e, |a, b| cov[(n_p + a, n_p + b)]);
         Ok(GapFit {
             effects: effects.to_vec(),
             base: (0..n_p).map(|i| u[i]).collect(),
@@ -497,11 +512,14 @@ impl GapProblem {
             theta: (0..n_e).map(|i| u[n_p + i]).collect(),
             theta_sigma: (0..n_e).map(|i| sd(n_p + i)).collect(),
             theta_corr,
+            theta_cov,
             chi2,
             objective: chi2 + prior_terms,
             dof,
             residual,
             residual_cov,
+            stretch_chi2,
+            stretch_dof,
         })
     }
 }

@@ -23,6 +23,7 @@
 //! is the file-backed entry point.
 
 pub mod candidates;
+pub mod detect;
 pub mod gap;
 pub mod plot;
 pub mod reconstruct;
@@ -152,6 +153,8 @@ pub struct SegmentGap {
     pub gap_mps: [f64; 3],
     /// Its 1-σ under noise alone, m/s.
     pub sigma_mps: [f64; 3],
+    /// The segment's share of the step's χ² and of its expectation under
+    /// noise alone: summed over the segments they give the step's.
     pub chi2: f64,
     pub dof: f64,
 }
@@ -216,6 +219,12 @@ pub struct DiagnoseReport {
     pub gap_excess_after: f64,
     pub z_before: f64,
     pub z_after: f64,
+    /// What the run could see: for every candidate, the smallest effect
+    /// it would have named, and not called ambiguous, beyond the named
+    /// effects (each quantity along its most visible direction, and each
+    /// parameter alone).
+    #[serde(default)]
+    pub detectable: Vec<detect::DetectionThreshold>,
     /// The final calibration (SPEC §5 result with the effect parameters).
     pub calibration: CalibrationResult,
     /// The named effects in SPEC §3 JSON form.
@@ -236,6 +245,17 @@ impl DiagnoseReport {
         use std::fmt::Write;
         let mut o = String::new();
         let _ = writeln!(o, "verdict: {}", self.verdict);
+        if !self.detectable.is_empty() {
+            let seen = detect::describe(&self.detectable);
+            if self.named.is_empty() {
+                let _ = writeln!(o, "{}; this run would have named {seen}", self.verdict);
+            } else {
+                let _ = writeln!(
+                    o,
+                    "beyond the named effects this run would have named {seen}"
+                );
+            }
+        }
         let _ = writeln!(
             o,
             "gap RMS {:.3e} m/s before, {:.3e} m/s after; noise floor {:.3e} m/s; z {:.1} -> {:.1}",
@@ -304,7 +324,7 @@ impl Library {
         }
     }
 
-    fn columns(&self, c: usize) -> impl Iterator<Item = usize> {
+    fn columns(&self, c: usize) -> std::ops::Range<usize> {
         self.offset[c]..self.offset[c] + self.candidates[c].params.len()
     }
 }
@@ -441,7 +461,6 @@ fn segment_gaps(fit: &GapFit, nodes: &Nodes, kinds: &[StretchKind], t0: f64) -> 
         };
         let r = fit.residual[k];
         let c = &fit.residual_cov[k];
-        let chi2: f64 = (0..6).map(|i| r[i] * r[i] / c[(i, i)].max(1e-300)).sum();
         let new = !matches!(out.last(), Some(s) if s.kind == name && s.index == index);
         if new {
             out.push(SegmentGap {
@@ -461,8 +480,13 @@ fn segment_gaps(fit: &GapFit, nodes: &Nodes, kinds: &[StretchKind], t0: f64) -> 
             s.gap_mps[i] += r[3 + i];
             s.sigma_mps[i] += c[(3 + i, 3 + i)];
         }
-        s.chi2 += chi2;
-        s.dof += 6.0 - (0..6).filter(|&i| c[(i, i)] <= 0.0).count() as f64;
+        // The stretch's share of the run's χ², in the run's own weight.
+        // Not each component over its own residual variance: the fitted
+        // node attitudes leave the attitude rows with a variance that is
+        // a difference of nearly equal numbers, zero or below it, and a
+        // rounding-sized residual over it gave χ² of 1e270.
+        s.chi2 += fit.stretch_chi2[k];
+        s.dof += fit.stretch_dof[k];
     }
     for s in &mut out {
         for v in &mut s.sigma_mps {
@@ -488,15 +512,7 @@ fn localise(
     for (k, kind) in kinds.iter().enumerate() {
         let r = fit.residual[k];
         let c = &fit.residual_cov[k];
-        let mut chi2 = 0.0;
-        let mut exp = 0.0;
-        for i in 0..6 {
-            let var = c[(i, i)];
-            if var > 0.0 {
-                chi2 += r[i] * r[i] / var;
-                exp += 1.0;
-            }
-        }
+        let (chi2, exp) = (fit.stretch_chi2[k], fit.stretch_dof[k]);
         for i in 0..3 {
             axis_num[i] += r[3 + i] * r[3 + i];
             axis_den[i] += c[(3 + i, 3 + i)].max(0.0);
@@ -960,6 +976,40 @@ pub fn diagnose(
         open_loop_after: ol.iter().map(|x| x.2).collect(),
     };
 
+    // What the run could see, against the last step's dispersion: from
+    // one fit carrying every effect column, their joint information. A
+    // failure there costs the thresholds, not the diagnosis.
+    let dispersion = steps
+        .last()
+        .and_then(|s| s.candidates.first())
+        .map_or((current.chi2 / current.dof).max(1.0), |c| c.dispersion);
+    let columns: Vec<detect::Column> = lib
+        .candidates
+        .iter()
+        .enumerate()
+        .map(|(c, candidate)| detect::Column {
+            candidate,
+            columns: lib.columns(c),
+        })
+        .collect();
+    let detectable = match problem.fit(&(0..lib.n).collect::<Vec<_>>()) {
+        Ok(all) => {
+            let visibility = detect::Visibility::from_covariance(
+                &all.theta_cov,
+                dispersion,
+                current.n_obs() as f64,
+            );
+            (0..lib.candidates.len())
+                .flat_map(|c| {
+                    detect::thresholds(&columns, c, &named, &visibility, opts.bic_threshold)
+                })
+                .collect()
+        }
+        Err(e) => {
+            warnings.push(format!("no detection thresholds: {e}"));
+            Vec::new()
+        }
+    };
     let floor = first_fit.noise_floor_rms();
     let excess = |rms: f64| (rms * rms - floor * floor).max(0.0).sqrt();
     stage(progress, 1.0, "done");
@@ -980,6 +1030,7 @@ pub fn diagnose(
         gap_excess_after: excess(current.gap_rms()),
         z_before: first_fit.z(),
         z_after: current.z(),
+        detectable,
         segments_before: segment_gaps(&first_fit, &nodes, &kinds, t0),
         segments_after: segment_gaps(&current, &nodes, &kinds, t0),
         calibration,
