@@ -442,6 +442,27 @@ async fn roles_are_enforced_and_a_full_queue_answers_503() {
     assert_eq!(problem(r).await.0, StatusCode::FORBIDDEN);
     assert_eq!(app.get(&engineer, "/units").await.status(), StatusCode::OK);
     assert_eq!(app.get("", "/healthz").await.status(), StatusCode::OK);
+    // The operations endpoints at the root too, with the same rules.
+    let root = app.base.trim_end_matches("/api/v1").to_string();
+    for path in ["/healthz", "/readyz"] {
+        let r = app.http.get(format!("{root}{path}")).send().await.unwrap();
+        assert_eq!(r.status(), StatusCode::OK, "{path}");
+    }
+    let r = app
+        .http
+        .get(format!("{root}/metrics"))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(problem(r).await.0, StatusCode::UNAUTHORIZED);
+    let r = app
+        .http
+        .get(format!("{root}/metrics"))
+        .bearer_auth(&engineer)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::OK);
 
     let r = app
         .upload_multipart(&station, "RLG-0042", &meta, data.clone())

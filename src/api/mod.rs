@@ -69,8 +69,15 @@ pub fn router(state: AppState) -> Router {
         .merge(tokens::router())
         .merge(upload)
         .method_not_allowed_fallback(|| async { ApiError::MethodNotAllowed });
+    // The operations endpoints also at the root, where orchestrators'
+    // probes and Prometheus look for them by default.
+    let operations = Router::new()
+        .route("/healthz", get(healthz))
+        .route("/readyz", get(readyz))
+        .route("/metrics", get(metrics));
     Router::new()
         .nest("/api/v1", api)
+        .merge(operations)
         .fallback(|| async { ApiError::NotFound("no such endpoint".into()) })
         .layer(axum::middleware::from_fn(bound_request_head))
         .layer(axum::middleware::map_response(ensure_problem))
