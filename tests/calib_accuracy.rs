@@ -152,6 +152,10 @@ fn least_squares_alone_meets_table1() {
     let res = calibrate(&cfg, &opts);
     assert_eq!(res.estimator, "lsq");
     assert_within_table1(&res, &truth, "least squares");
+    // Alone too, the result carries the model check (a filter pass at its
+    // answer), and a clean run passes it.
+    let check = res.model_check.expect("a model check");
+    assert!(check.adequate, "{}", check.summary);
 }
 
 #[test]

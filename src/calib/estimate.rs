@@ -668,6 +668,12 @@ pub(crate) fn estimate_scanned(
     } else {
         None
     };
+    // The least squares alone makes no zero-velocity innovations: one
+    // filter pass at its answer gives the model check every result carries.
+    if last.model_check.is_none() {
+        let mut report = |_: f64| {};
+        last.model_check = kf_pass(ctx, &params, &mut report)?.model_check;
+    }
     progress(Progress {
         fraction: 0.95,
         stage: "reporting".into(),

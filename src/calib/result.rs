@@ -102,8 +102,9 @@ pub struct CalibrationResult {
     pub convergence: Convergence,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cross_check: Option<CrossCheck>,
-    /// Whether the model explains the run (SPEC §5); absent only when no
-    /// filter pass ran (the least squares alone, without cross-check).
+    /// Whether the model explains the run (SPEC §5), from the filter's
+    /// last pass (one is made at the least squares' answer when it runs
+    /// alone); absent only in results stored before the check existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_check: Option<ModelCheck>,
 }
