@@ -439,6 +439,8 @@ async fn roles_are_enforced_and_a_full_queue_answers_503() {
     let r = app
         .upload_multipart(&engineer, "RLG-0042", &meta, data.clone())
         .await;
+    // Refused before its body was read: the connection is not reused.
+    assert_eq!(r.headers()["connection"], "close");
     assert_eq!(problem(r).await.0, StatusCode::FORBIDDEN);
     assert_eq!(app.get(&engineer, "/units").await.status(), StatusCode::OK);
     assert_eq!(app.get("", "/healthz").await.status(), StatusCode::OK);

@@ -57,7 +57,8 @@ pub fn router(state: AppState) -> Router {
     let upload = Router::new()
         .route("/units/{serial}/runs", post(upload::upload))
         .layer(DefaultBodyLimit::max(limit))
-        .layer(RequestBodyLimitLayer::new(limit));
+        .layer(RequestBodyLimitLayer::new(limit))
+        .layer(axum::middleware::from_fn(close_after_refused_upload));
     let api = Router::new()
         .route("/healthz", get(healthz))
         .route("/readyz", get(readyz))
@@ -86,6 +87,25 @@ pub fn router(state: AppState) -> Router {
         ))
         .layer(TraceLayer::new_for_http())
         .with_state(state)
+}
+
+/// An upload refused before its body was read (role, queue, disk, size)
+/// leaves the rest of the body in flight, so its HTTP/1 connection cannot
+/// carry another request: say so, or a client that pools it meets a broken
+/// pipe on its next request. (HTTP/2 streams need no such header.)
+async fn close_after_refused_upload(
+    req: axum::extract::Request,
+    next: axum::middleware::Next,
+) -> Response {
+    let http1 = req.version() < axum::http::Version::HTTP_2;
+    let mut resp = next.run(req).await;
+    if http1 && !resp.status().is_success() {
+        resp.headers_mut().insert(
+            header::CONNECTION,
+            axum::http::HeaderValue::from_static("close"),
+        );
+    }
+    resp
 }
 
 /// Turns any error response made outside the handlers (a layer's 413, an
