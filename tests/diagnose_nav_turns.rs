@@ -7,49 +7,8 @@ mod diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::model::Effects;
-use sinscal::sim::scheme::{Axis, Frame, Rotate, Step};
-use sinscal::sim::{Scheme, SimConfig};
-
-/// The paper's nine-plus-nine pattern, turned about e, n and u.
-fn nav_turns(dwell_s: f64) -> Scheme {
-    let turns = [
-        (Axis::N, 90.0),
-        (Axis::N, 180.0),
-        (Axis::N, 180.0),
-        (Axis::U, 90.0),
-        (Axis::U, 180.0),
-        (Axis::U, 180.0),
-        (Axis::E, 90.0),
-        (Axis::E, 180.0),
-        (Axis::E, 180.0),
-        (Axis::E, 90.0),
-        (Axis::E, 90.0),
-        (Axis::E, 90.0),
-        (Axis::N, 90.0),
-        (Axis::N, 90.0),
-        (Axis::N, 90.0),
-        (Axis::U, 90.0),
-        (Axis::U, 90.0),
-        (Axis::U, 90.0),
-    ];
-    let mut steps = vec![Step::Dwell { dwell_s }];
-    for (axis, angle_deg) in turns {
-        steps.push(Step::Rotate {
-            rotate: Rotate {
-                axis,
-                angle_deg,
-                rate_dps: 10.0,
-                accel_dps2: 20.0,
-                frame: Some(Frame::Nav),
-            },
-        });
-        steps.push(Step::Dwell { dwell_s });
-    }
-    Scheme {
-        name: "nav-turns-9+9".into(),
-        steps,
-    }
-}
+use sinscal::sim::scheme::{Axis, Frame, Step};
+use sinscal::sim::SimConfig;
 
 fn off_heading(effects: Effects, seed: u64) -> SimConfig {
     SimConfig {

@@ -5,8 +5,11 @@
 //! filter's σ on simulated runs of that start must be within 10 % of the
 //! plan's for every parameter.
 
+mod diagnosis_support;
+
 use std::sync::atomic::AtomicBool;
 
+use diagnosis_support::nav_turns;
 use nalgebra::Vector3;
 use sinscal::calib::plan::{plan, Plan, PlanInput};
 use sinscal::calib::sources::SimSource;
@@ -14,51 +17,9 @@ use sinscal::calib::{estimate, EstimateOptions, NoiseDensity, RunInfo};
 use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::attitude::{dcm_to_rotvec, rotvec_to_dcm};
 use sinscal::nav::Site;
-use sinscal::sim::scheme::{Axis, Frame, Rotate, Step};
 use sinscal::sim::{Noise, Scheme, SimConfig};
 
 const RATE_HZ: f64 = 20.0;
-
-/// The paper's nine-plus-nine pattern, turned about e, n and u.
-fn nav_turns(dwell_s: f64) -> Scheme {
-    let turns = [
-        (Axis::N, 90.0),
-        (Axis::N, 180.0),
-        (Axis::N, 180.0),
-        (Axis::U, 90.0),
-        (Axis::U, 180.0),
-        (Axis::U, 180.0),
-        (Axis::E, 90.0),
-        (Axis::E, 180.0),
-        (Axis::E, 180.0),
-        (Axis::E, 90.0),
-        (Axis::E, 90.0),
-        (Axis::E, 90.0),
-        (Axis::N, 90.0),
-        (Axis::N, 90.0),
-        (Axis::N, 90.0),
-        (Axis::U, 90.0),
-        (Axis::U, 90.0),
-        (Axis::U, 90.0),
-    ];
-    let mut steps = vec![Step::Dwell { dwell_s }];
-    for (axis, angle_deg) in turns {
-        steps.push(Step::Rotate {
-            rotate: Rotate {
-                axis,
-                angle_deg,
-                rate_dps: 10.0,
-                accel_dps2: 20.0,
-                frame: Some(Frame::Nav),
-            },
-        });
-        steps.push(Step::Dwell { dwell_s });
-    }
-    Scheme {
-        name: "nav-turns-9+9".into(),
-        steps,
-    }
-}
 
 /// The start as a rotation vector in n, degrees: heading ψ (about up)
 /// after a tilt of `tilt_deg` about the body x axis, C_b^n = R_u(ψ) R_x(tilt).

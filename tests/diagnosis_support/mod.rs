@@ -13,7 +13,7 @@ use sinscal::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
 use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal::sim::{scheme, Noise, Scheme, SimConfig};
 
 pub fn site() -> Site {
     Site::new(28.2215, 112.9924, 50.0)
@@ -34,6 +34,47 @@ pub fn config(scheme: Scheme, effects: Effects, seed: u64) -> SimConfig {
         noise: Noise::default_navigation_grade(),
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed,
+    }
+}
+
+/// The paper's nine-plus-nine pattern, turned about e, n and u.
+pub fn nav_turns(dwell_s: f64) -> Scheme {
+    let turns = [
+        (scheme::Axis::N, 90.0),
+        (scheme::Axis::N, 180.0),
+        (scheme::Axis::N, 180.0),
+        (scheme::Axis::U, 90.0),
+        (scheme::Axis::U, 180.0),
+        (scheme::Axis::U, 180.0),
+        (scheme::Axis::E, 90.0),
+        (scheme::Axis::E, 180.0),
+        (scheme::Axis::E, 180.0),
+        (scheme::Axis::E, 90.0),
+        (scheme::Axis::E, 90.0),
+        (scheme::Axis::E, 90.0),
+        (scheme::Axis::N, 90.0),
+        (scheme::Axis::N, 90.0),
+        (scheme::Axis::N, 90.0),
+        (scheme::Axis::U, 90.0),
+        (scheme::Axis::U, 90.0),
+        (scheme::Axis::U, 90.0),
+    ];
+    let mut steps = vec![scheme::Step::Dwell { dwell_s }];
+    for (axis, angle_deg) in turns {
+        steps.push(scheme::Step::Rotate {
+            rotate: scheme::Rotate {
+                axis,
+                angle_deg,
+                rate_dps: 10.0,
+                accel_dps2: 20.0,
+                frame: Some(scheme::Frame::Nav),
+            },
+        });
+        steps.push(scheme::Step::Dwell { dwell_s });
+    }
+    Scheme {
+        name: "nav-turns-9+9".into(),
+        steps,
     }
 }
 
