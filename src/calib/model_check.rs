@@ -201,8 +201,8 @@ impl CheckAccumulator {
         CheckAccumulator { dwells }
     }
 
-    /// Adds the innovation of a zero-velocity window that ends at `t_end`
-    /// inside segment `segment` (`t_mid` its middle).
+    /// Adds the innovation of a zero-velocity window inside segment
+    /// `segment`, `t_mid` the window's middle.
     pub fn add(
         &mut self,
         segment: usize,
@@ -283,13 +283,13 @@ impl CheckAccumulator {
                     .unwrap_or_else(|| DVector::zeros(k));
                 for (a, &j) in active.iter().enumerate() {
                     let shape = SHAPES[j];
-                    let (size, unit) = match shape {
+                    // The misfit in physical units, where the shape has one.
+                    let physical = match shape {
                         Shape::TurnStep => {
-                            let raw = d.first_y[i] - (d.first_m.row(i) * p_scaled)[(0, 0)];
-                            (Some(raw), Some("m/s"))
+                            Some((d.first_y[i] - (d.first_m.row(i) * p_scaled)[(0, 0)], "m/s"))
                         }
-                        Shape::Drift => (drift.map(|r| r.drift_mps2[i]), Some("m/s^2")),
-                        _ => (None, None),
+                        Shape::Drift => drift.map(|r| (r.drift_mps2[i], "m/s^2")),
+                        _ => None,
                     };
                     if shape == Shape::Drift {
                         drift_z[i] = z[a];
@@ -301,8 +301,8 @@ impl CheckAccumulator {
                         t_end: d.t_end,
                         axis: *axis,
                         z: z[a],
-                        size: size.filter(|_| unit.is_some()),
-                        unit: unit.map(str::to_string),
+                        size: physical.map(|p| p.0),
+                        unit: physical.map(|p| p.1.to_string()),
                     });
                 }
             }
@@ -375,10 +375,7 @@ fn judge(scores: Vec<Misfit>, trends: Vec<Misfit>) -> ModelCheck {
         // largest few, which are where it is most.
         findings = all.iter().take(5).cloned().collect();
     }
-    let summary = summarise(
-        adequate, statistic, threshold, dof, largest_z, z_bound, &findings, &all,
-    );
-    ModelCheck {
+    let mut check = ModelCheck {
         adequate,
         statistic,
         threshold,
@@ -390,29 +387,26 @@ fn judge(scores: Vec<Misfit>, trends: Vec<Misfit>) -> ModelCheck {
                  turn step, drift, drift change and curvature; χ² sum and largest |z|, each at \
                  half the false-alarm rate"
             .into(),
-        summary,
+        summary: String::new(),
         findings,
-    }
+    };
+    check.summary = summarise(&check, &all);
+    check
 }
 
-#[allow(clippy::too_many_arguments)]
-fn summarise(
-    adequate: bool,
-    statistic: f64,
-    threshold: f64,
-    dof: usize,
-    largest_z: f64,
-    z_bound: f64,
-    findings: &[Misfit],
-    all: &[Misfit],
-) -> String {
+/// The verdict in words: the figures, then the findings grouped by shape;
+/// `all` is every score, largest first.
+fn summarise(check: &ModelCheck, all: &[Misfit]) -> String {
     use std::fmt::Write;
+    let (statistic, threshold, dof) = (check.statistic, check.threshold, check.dof);
+    let (largest_z, z_bound) = (check.largest_z, check.largest_z_threshold);
+    let findings = &check.findings;
     let mut s = String::new();
     let figures = format!(
         "χ² {statistic:.0} over {dof} scores (threshold {threshold:.0}); largest |z| \
          {largest_z:.1} (threshold {z_bound:.1})"
     );
-    if adequate {
+    if check.adequate {
         let _ = write!(
             s,
             "adequate: the residuals are what the run's noise explains ({figures})"
