@@ -221,11 +221,10 @@ pub struct Segmenter {
     /// Mean specific force of the last closed block, m/s².
     prev_block_f: Option<Vector3<f64>>,
     still_diffs: DiffSums,
-    /// The last still block's differences, waiting for the next block's
-    /// decision, and whether the blocks around it were still.
+    /// The last block's differences if it was still, waiting for the next
+    /// block's decision, and whether the block before it was still.
     pending_diffs: Option<DiffSums>,
     before_still: bool,
-    pending_still: bool,
     t_first: Option<f64>,
     start_rate: Moments,
     start_force: Moments,
@@ -247,7 +246,6 @@ impl Segmenter {
             still_diffs: DiffSums::default(),
             pending_diffs: None,
             before_still: false,
-            pending_still: false,
             t_first: None,
             start_rate: Moments::default(),
             start_force: Moments::default(),
@@ -309,13 +307,13 @@ impl Segmenter {
         // few records of motion in it, and one such difference outweighs
         // hours of navigation-grade noise (σ came out up to 8× too large on
         // runs whose turns did not start on a block boundary).
-        if let Some(p) = self.pending_diffs.take() {
+        let pending = self.pending_diffs.take();
+        if let Some(p) = pending {
             if self.before_still && b.still {
                 self.still_diffs.add(&p);
             }
         }
-        self.before_still = self.pending_still;
-        self.pending_still = b.still;
+        self.before_still = pending.is_some();
         if b.still {
             self.pending_diffs = Some(diffs);
         }
