@@ -74,7 +74,7 @@ impl RunView {
             uploaded_at: rfc3339(r.uploaded_at),
             recorded_at: r.recorded_at.map(rfc3339),
             run_time: rfc3339(r.run_time),
-            review: Review::from_column(r.review.as_deref()),
+            review: Review::of(r.calibrated, r.model_adequate),
             model_check: ModelCheckBrief::from_columns(r.model_adequate, r.model_summary),
         })
     }

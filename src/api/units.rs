@@ -232,10 +232,7 @@ async fn history(
                 job_id: r.job_id,
                 run_time: rfc3339(r.run_time),
                 completed_at: rfc3339(r.completed_at),
-                review: match r.model_adequate {
-                    Some(false) => Review::NeedsReview,
-                    _ => Review::Clear,
-                },
+                review: Review::of(true, r.model_adequate),
                 model_check: ModelCheckBrief::from_columns(r.model_adequate, r.model_summary),
             })
         })

@@ -173,9 +173,9 @@ pub struct RunRow {
     /// were recorded).
     pub uploaded_by: Option<String>,
     pub job_id: String,
-    /// `clear` or `needs_review` once calibrated (see [`Review`]).
+    /// Whether the run has a result (read by [`Store::get_run`]).
     #[sqlx(default)]
-    pub review: Option<String>,
+    pub calibrated: bool,
     /// The result's model check, when there is a result.
     #[sqlx(default)]
     pub model_adequate: Option<bool>,
@@ -197,20 +197,13 @@ pub enum Review {
 }
 
 impl Review {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Review::Pending => "pending",
-            Review::Clear => "clear",
-            Review::NeedsReview => "needs_review",
-        }
-    }
-
-    /// The review a stored column means (NULL: not calibrated yet).
-    pub fn from_column(s: Option<&str>) -> Self {
-        match s {
-            Some("needs_review") => Review::NeedsReview,
-            Some(_) => Review::Clear,
-            None => Review::Pending,
+    /// The review of a run from its result: none yet, or its model check
+    /// (a result stored before the check existed counts as clear).
+    pub fn of(calibrated: bool, model_adequate: Option<bool>) -> Self {
+        match (calibrated, model_adequate) {
+            (false, _) => Review::Pending,
+            (true, Some(false)) => Review::NeedsReview,
+            (true, _) => Review::Clear,
         }
     }
 }
@@ -590,7 +583,8 @@ impl Store {
 
     pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT r.*, j.id AS job_id, res.model_adequate, res.model_summary FROM runs r
+            "SELECT r.*, j.id AS job_id, res.run_id IS NOT NULL AS calibrated,
+                    res.model_adequate, res.model_summary FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              LEFT JOIN results res ON res.run_id = r.id
              WHERE r.id = ?",
@@ -872,9 +866,9 @@ impl Store {
     /// and only if `fence` still holds the lease. False: it did not, and
     /// nothing was written.
     ///
-    /// The run is marked `clear` or `needs_review` by the result's model
-    /// check; an inadequate one also queues a diagnose job when
-    /// `on_inadequate` says so. That job bypasses the queue limit: there
+    /// A result whose model check fails (the run then reads
+    /// `needs_review`) also queues a diagnose job when `on_inadequate`
+    /// says so. That job bypasses the queue limit: there
     /// is at most one per calibrated run, whose upload passed the limit.
     pub async fn complete_job(
         &self,
@@ -902,16 +896,6 @@ impl Store {
         };
         insert_result(&mut tx, &stored).await?;
         let adequate = result.model_check.as_ref().map_or(true, |c| c.adequate);
-        let review = if adequate {
-            Review::Clear
-        } else {
-            Review::NeedsReview
-        };
-        sqlx::query("UPDATE runs SET review = ? WHERE id = ?")
-            .bind(review.as_str())
-            .bind(&claim.run_id)
-            .execute(&mut *tx)
-            .await?;
         if !adequate && on_inadequate.queue_diagnose {
             sqlx::query(
                 "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
@@ -1176,10 +1160,6 @@ impl Store {
             document: &document,
         };
         insert_result(&mut tx, &stored).await?;
-        sqlx::query("UPDATE runs SET review = 'clear' WHERE id = ?")
-            .bind(&new.run_id)
-            .execute(&mut *tx)
-            .await?;
         tx.commit().await?;
         Ok(())
     }
