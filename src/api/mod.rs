@@ -59,10 +59,14 @@ pub fn router(state: AppState) -> Router {
         .layer(DefaultBodyLimit::max(limit))
         .layer(RequestBodyLimitLayer::new(limit))
         .layer(axum::middleware::from_fn(close_after_refused_upload));
-    let api = Router::new()
+    // The operations endpoints, under the API and at the root too, where
+    // orchestrators' probes and Prometheus look for them by default.
+    let operations = Router::new()
         .route("/healthz", get(healthz))
         .route("/readyz", get(readyz))
-        .route("/metrics", get(metrics))
+        .route("/metrics", get(metrics));
+    let api = Router::new()
+        .merge(operations.clone())
         .route("/openapi.yaml", get(openapi))
         .merge(runs::router())
         .merge(jobs::router())
@@ -70,12 +74,6 @@ pub fn router(state: AppState) -> Router {
         .merge(tokens::router())
         .merge(upload)
         .method_not_allowed_fallback(|| async { ApiError::MethodNotAllowed });
-    // The operations endpoints also at the root, where orchestrators'
-    // probes and Prometheus look for them by default.
-    let operations = Router::new()
-        .route("/healthz", get(healthz))
-        .route("/readyz", get(readyz))
-        .route("/metrics", get(metrics));
     Router::new()
         .nest("/api/v1", api)
         .merge(operations)
