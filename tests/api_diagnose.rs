@@ -47,13 +47,7 @@ async fn diagnose_job_names_accel_delay() {
 
     // Stations upload; they do not diagnose.
     let station = app.create_token("station").await;
-    let r = app
-        .http
-        .post(app.url(&format!("/runs/{run_id}/diagnose")))
-        .bearer_auth(&station)
-        .send()
-        .await
-        .unwrap();
+    let r = app.post_diagnose(&station, &run_id).await;
     assert_eq!(problem(r).await.0, StatusCode::FORBIDDEN);
 
     // An unknown run: 404.
@@ -67,13 +61,7 @@ async fn diagnose_job_names_accel_delay() {
     assert_eq!(problem(r).await.0, StatusCode::NOT_FOUND);
 
     let engineer = app.create_token("engineer").await;
-    let r = app
-        .http
-        .post(app.url(&format!("/runs/{run_id}/diagnose")))
-        .bearer_auth(&engineer)
-        .send()
-        .await
-        .unwrap();
+    let r = app.post_diagnose(&engineer, &run_id).await;
     assert_eq!(r.status(), StatusCode::ACCEPTED);
     let location = r.headers()["location"].to_str().unwrap().to_string();
     let job: Value = r.json().await.unwrap();
@@ -83,13 +71,7 @@ async fn diagnose_job_names_accel_delay() {
     assert_eq!(job["run_id"], run_id.as_str());
 
     // Asked again while it is queued or running: the same job, not another.
-    let r = app
-        .http
-        .post(app.url(&format!("/runs/{run_id}/diagnose")))
-        .bearer_auth(&engineer)
-        .send()
-        .await
-        .unwrap();
+    let r = app.post_diagnose(&engineer, &run_id).await;
     if r.status() == StatusCode::OK {
         let again: Value = r.json().await.unwrap();
         assert_eq!(again["id"], job_id.as_str());
@@ -153,13 +135,7 @@ async fn diagnosis_of_a_run_never_diagnosed_is_409_while_queued() {
         .as_str()
         .unwrap()
         .to_string();
-    let r = app
-        .http
-        .post(app.url(&format!("/runs/{run_id}/diagnose")))
-        .bearer_auth(&app.admin)
-        .send()
-        .await
-        .unwrap();
+    let r = app.post_diagnose(&app.admin, &run_id).await;
     assert_eq!(r.status(), StatusCode::ACCEPTED);
     let r = app
         .get(&app.admin, &format!("/runs/{run_id}/diagnosis"))
@@ -191,13 +167,7 @@ async fn diagnose_on_a_full_queue_is_503() {
         .as_str()
         .unwrap()
         .to_string();
-    let r = app
-        .http
-        .post(app.url(&format!("/runs/{run_id}/diagnose")))
-        .bearer_auth(&app.admin)
-        .send()
-        .await
-        .unwrap();
+    let r = app.post_diagnose(&app.admin, &run_id).await;
     assert!(r.headers().contains_key("retry-after"));
     assert_eq!(problem(r).await.0, StatusCode::SERVICE_UNAVAILABLE);
     app.stop().await;

@@ -45,17 +45,6 @@ async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> S
     up["run_id"].as_str().unwrap().to_string()
 }
 
-async fn post_diagnose(app: &TestApp, run_id: &str) -> (StatusCode, Value) {
-    let r = app
-        .http
-        .post(app.url(&format!("/runs/{run_id}/diagnose")))
-        .bearer_auth(&app.admin)
-        .send()
-        .await
-        .unwrap();
-    (r.status(), r.json().await.unwrap())
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_inadequate_run_is_marked_and_diagnosed_by_itself() {
     let app = spawn_app(1).await;
@@ -79,7 +68,8 @@ async fn an_inadequate_run_is_marked_and_diagnosed_by_itself() {
 
     // A diagnose job was queued when the result was stored: asking again
     // returns it (or, once it has finished, its report exists).
-    let (status, job) = post_diagnose(&app, &run_id).await;
+    let r = app.post_diagnose(&app.admin, &run_id).await;
+    let (status, job): (StatusCode, Value) = (r.status(), r.json().await.unwrap());
     let job_id = job["id"].as_str().unwrap().to_string();
     assert_eq!(job["kind"], "diagnose");
     if status == StatusCode::ACCEPTED {
@@ -120,7 +110,8 @@ async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
     // Inadequate, but with automatic diagnosis off: marked, not queued.
     let bad = upload_and_calibrate(&app, "RLG-MC2", &run_config(13, delayed())).await;
     assert_eq!(app.get_run(&bad).await["review"], "needs_review");
-    let (status, job) = post_diagnose(&app, &bad).await;
+    let r = app.post_diagnose(&app.admin, &bad).await;
+    let (status, job): (StatusCode, Value) = (r.status(), r.json().await.unwrap());
     assert_eq!(
         status,
         StatusCode::ACCEPTED,

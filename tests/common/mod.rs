@@ -232,6 +232,16 @@ impl TestApp {
             .unwrap()
     }
 
+    /// Asks for a run's diagnosis (POST /runs/{id}/diagnose).
+    pub async fn post_diagnose(&self, token: &str, run_id: &str) -> Response {
+        self.http
+            .post(self.url(&format!("/runs/{run_id}/diagnose")))
+            .bearer_auth(token)
+            .send()
+            .await
+            .unwrap()
+    }
+
     pub async fn get_json(&self, path: &str) -> Value {
         let r = self.get(&self.admin, path).await;
         assert_eq!(r.status(), StatusCode::OK, "GET {path}");
