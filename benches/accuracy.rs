@@ -35,16 +35,6 @@ use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 
-const GROUPS: [Group; 7] = [
-    Group::GyroBias,
-    Group::GyroScale,
-    Group::GyroMisalign,
-    Group::AccelBias,
-    Group::AccelScale,
-    Group::AccelMisalign,
-    Group::AccelQuad,
-];
-
 /// The truth and start attitude (deg) of seed `seed` in `--raw` mode.
 fn raw_unit(seed: u64) -> (String, ErrorParameters, [f64; 3]) {
     let mut p = ErrorParameters::paper();
@@ -193,7 +183,7 @@ fn main() {
         let mut seed_z2 = [0.0; 7];
         let mut run_worst = 0.0f64;
         for (i, p) in PARAMETERS.iter().enumerate() {
-            let g = GROUPS.iter().position(|g| *g == p.group).unwrap();
+            let g = Group::ALL.iter().position(|g| *g == p.group).unwrap();
             let e = &res.parameters[p.name];
             let err = e.value - truth.canonical(i);
             seed_z2[g] += (err / e.sigma).powi(2);
@@ -242,7 +232,7 @@ fn main() {
         "{:<15} {:>10} {:>8} {:>12} {:>12} {:>10}",
         "family", "rms err/σ", "max |z|", "mean σ", "max |err|", "bound"
     );
-    for (g, group) in GROUPS.iter().enumerate() {
+    for (g, group) in Group::ALL.iter().enumerate() {
         println!(
             "{:<15} {:>10.2} {:>8.2} {:>12.6} {:>12.6} {:>10}",
             format!("{group:?}"),
@@ -257,7 +247,7 @@ fn main() {
     // ratio err/σ is judged.
     if raw {
         let all = worst_ratio.iter().copied().fold(0.0, f64::max);
-        let per: Vec<String> = GROUPS
+        let per: Vec<String> = Group::ALL
             .iter()
             .zip(worst_ratio)
             .map(|(g, r)| format!("{g:?} {r:.2}"))

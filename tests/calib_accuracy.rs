@@ -230,15 +230,7 @@ fn sigma_is_honest_over_twenty_seeds() {
         cross_check: false,
         ..EstimateOptions::default()
     };
-    let groups = [
-        Group::GyroBias,
-        Group::GyroScale,
-        Group::GyroMisalign,
-        Group::AccelBias,
-        Group::AccelScale,
-        Group::AccelMisalign,
-        Group::AccelQuad,
-    ];
+    let groups = Group::ALL;
     let mut sum_sq = vec![0.0; groups.len()];
     let mut count = vec![0usize; groups.len()];
     let truth = ErrorParameters::paper();

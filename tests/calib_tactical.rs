@@ -15,16 +15,6 @@ use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 
-const GROUPS: [Group; 7] = [
-    Group::GyroBias,
-    Group::GyroScale,
-    Group::GyroMisalign,
-    Group::AccelBias,
-    Group::AccelScale,
-    Group::AccelMisalign,
-    Group::AccelQuad,
-];
-
 /// Not a whole number of pre-scan blocks or filter windows.
 const DWELL_S: f64 = 300.03;
 
@@ -47,8 +37,8 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
         site,
         sample_rate_hz: 20.0,
     };
-    let mut sum_sq = [0.0; GROUPS.len()];
-    let mut count = [0usize; GROUPS.len()];
+    let mut sum_sq = [0.0; Group::ALL.len()];
+    let mut count = [0usize; Group::ALL.len()];
     for seed in 201..221u64 {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         let truth = ErrorParameters::random(&mut rng);
@@ -78,12 +68,12 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
         for (i, p) in PARAMETERS.iter().enumerate() {
             let e = &res.parameters[p.name];
             let z = (e.value - truth.canonical(i)) / e.sigma;
-            let g = GROUPS.iter().position(|g| *g == p.group).unwrap();
+            let g = Group::ALL.iter().position(|g| *g == p.group).unwrap();
             sum_sq[g] += z * z;
             count[g] += 1;
         }
     }
-    for (g, group) in GROUPS.iter().enumerate() {
+    for (g, group) in Group::ALL.iter().enumerate() {
         let rms = (sum_sq[g] / count[g] as f64).sqrt();
         eprintln!("{group:?}: rms err/σ {rms:.2}");
         assert!((0.7..1.3).contains(&rms), "{group:?}: rms err/σ {rms:.2}");

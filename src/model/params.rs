@@ -22,6 +22,19 @@ pub enum Group {
     AccelQuad,
 }
 
+impl Group {
+    /// Every family, in SPEC §2 table order.
+    pub const ALL: [Group; 7] = [
+        Group::GyroBias,
+        Group::GyroScale,
+        Group::GyroMisalign,
+        Group::AccelBias,
+        Group::AccelScale,
+        Group::AccelMisalign,
+        Group::AccelQuad,
+    ];
+}
+
 /// A parameter's canonical name, reporting unit and what one unit is in SI.
 #[derive(Clone, Copy, Debug)]
 pub struct ParameterInfo {
