@@ -82,7 +82,7 @@ fn main() {
     let known_noise = args.iter().any(|a| a == "--known-noise");
     let dwell: f64 = value(&args, "--dwell").unwrap_or(600.0);
     let rate: f64 = value(&args, "--rate").unwrap_or(100.0);
-    let latitude: f64 = value(&args, "--latitude").unwrap_or(28.2215);
+    let latitude: f64 = value(&args, "--latitude").unwrap_or(Site::REFERENCE.latitude_deg);
     let random = args.iter().any(|a| a == "--random");
     let turned = args.iter().any(|a| a == "--turned");
     let turn_rate: Option<f64> = value(&args, "--turn-rate");
@@ -96,7 +96,10 @@ fn main() {
         .filter(|(i, _)| *i == 0 || !flags.contains(&args[i - 1].as_str()))
         .find_map(|(_, a)| a.parse().ok())
         .unwrap_or(if raw { 9 } else { 20 });
-    let site = Site::new(latitude, 112.9924, 50.0);
+    let site = Site {
+        latitude_deg: latitude,
+        ..Site::REFERENCE
+    };
     let mut base = EstimateOptions {
         cross_check: false,
         ..EstimateOptions::default()

@@ -14,17 +14,18 @@ use std::time::{Duration, Instant};
 
 use serde_json::Value;
 use sinscal::calib::ParameterEstimate;
+use sinscal::config::Config;
 use sinscal::io::data::DataFormat;
 use sinscal::io::run::write_simulated_run;
 use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::server::{Application, Config};
+use sinscal::server::Application;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::{NewRun, Store};
 
 fn sim(seed: u64) -> SimConfig {
     SimConfig {
-        site: Site::new(28.2215, 112.9924, 50.0),
+        site: Site::REFERENCE,
         sample_rate_hz: 100.0,
         scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
         params: ErrorParameters::paper(),

@@ -17,7 +17,7 @@ use sinscal::sim::{simulate, HandTurns, Noise, Scheme, SimConfig};
 
 fn config(scheme: &str, effects: Effects) -> SimConfig {
     SimConfig {
-        site: Site::new(28.2215, 112.9924, 50.0),
+        site: Site::REFERENCE,
         sample_rate_hz: 100.0,
         scheme: Scheme::builtin(scheme, 600.0).unwrap(),
         params: ErrorParameters::paper(),

@@ -10,9 +10,12 @@
 
 pub mod api;
 pub mod calib;
+pub mod config;
 pub mod diagnose;
+pub mod disk;
 pub mod io;
 pub mod jobs;
+pub mod metrics;
 pub mod model;
 pub mod nav;
 pub mod pipeline;

@@ -14,7 +14,7 @@ use sinscal::calib::{EstimateOptions, EstimatorKind, NoiseDensity};
 use sinscal::diagnose::plot::gap_svg;
 use sinscal::diagnose::DiagnoseOptions;
 use sinscal::io::meta::{read_json, write_json, RunMetadata, Truth};
-use sinscal::io::run::write_simulated_run;
+use sinscal::io::run::{metadata_sidecar, write_simulated_run};
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
 use sinscal::pipeline::{calibrate_file, diagnose_file};
@@ -45,7 +45,7 @@ enum Command {
     /// and show the gap shrink.
     Diagnose(DiagnoseArgs),
     /// Run the calibration server (HTTP API under /api/v1).
-    Serve(sinscal::server::ServeArgs),
+    Serve(sinscal::config::ServeArgs),
     /// Manage the server's bearer tokens.
     #[command(subcommand)]
     Token(TokenCommand),
@@ -59,7 +59,7 @@ enum TokenCommand {
         /// station (uploads), engineer (reads), admin (tokens, deletes).
         #[arg(long)]
         role: sinscal::store::Role,
-        #[arg(long, env = "SINSCAL_DATA_DIR", default_value = "./sinscal-data")]
+        #[arg(long, env = "SINSCAL_DATA_DIR", default_value = sinscal::config::defaults::DATA_DIR)]
         data_dir: PathBuf,
         /// A note naming the token's holder.
         #[arg(long)]
@@ -82,14 +82,6 @@ struct DiagnoseArgs {
     svg: Option<PathBuf>,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum EstimatorArg {
-    /// The systematic Kalman filter (with the least-squares cross-check).
-    Kf,
-    /// The velocity-error-rate least squares (with the filter as cross-check).
-    Lsq,
-}
-
 #[derive(clap::Args)]
 struct CalibrateArgs {
     /// The run's data file (CSV, gzip CSV or f64le).
@@ -100,8 +92,8 @@ struct CalibrateArgs {
     /// Write the full result (SPEC §5 and more) as JSON here.
     #[arg(long)]
     out: Option<PathBuf>,
-    #[arg(long, value_enum, default_value = "kf")]
-    estimator: EstimatorArg,
+    #[arg(long, value_enum, default_value_t = EstimatorKind::default())]
+    estimator: EstimatorKind,
     /// Skip the cross-check with the other estimator.
     #[arg(long)]
     no_cross_check: bool,
@@ -123,7 +115,7 @@ struct PlanArgs {
     vrw: f64,
     #[arg(long, default_value_t = 100.0)]
     rate: f64,
-    #[arg(long, default_value_t = 28.2215)]
+    #[arg(long, default_value_t = Site::REFERENCE.latitude_deg)]
     latitude: f64,
     /// Assume zero velocity also during rotations (turntable axes through
     /// the reference point).
@@ -149,12 +141,6 @@ enum ParamSet {
     Random,
 }
 
-#[derive(Clone, Copy, ValueEnum)]
-enum FormatArg {
-    Csv,
-    F64le,
-}
-
 #[derive(clap::Args)]
 struct SimulateArgs {
     /// A truth file (SPEC §5) to simulate exactly.
@@ -163,8 +149,8 @@ struct SimulateArgs {
     /// Output folder: run data, run.json, truth.json.
     #[arg(long)]
     out: PathBuf,
-    #[arg(long, value_enum, default_value = "csv")]
-    format: FormatArg,
+    #[arg(long, value_enum, default_value_t = DataFormat::default())]
+    format: DataFormat,
     /// Gzip the CSV.
     #[arg(long)]
     gzip: bool,
@@ -204,11 +190,11 @@ struct SimulateArgs {
     /// Seed of the hand turns; default: the run's seed.
     #[arg(long, requires = "manual")]
     manual_seed: Option<u64>,
-    #[arg(long, default_value_t = 28.2215)]
+    #[arg(long, default_value_t = Site::REFERENCE.latitude_deg)]
     latitude: f64,
-    #[arg(long, default_value_t = 112.9924)]
+    #[arg(long, default_value_t = Site::REFERENCE.longitude_deg)]
     longitude: f64,
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = Site::REFERENCE.height_m)]
     height: f64,
 }
 
@@ -278,10 +264,7 @@ fn nominal_simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
 
 fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
     let cfg = simulate_config(&a)?;
-    let format = match a.format {
-        FormatArg::Csv => DataFormat::Csv,
-        FormatArg::F64le => DataFormat::F64le,
-    };
+    let format = a.format;
     if a.gzip && format == DataFormat::F64le {
         bail!("--gzip applies to CSV only");
     }
@@ -296,25 +279,20 @@ fn run_simulate(a: SimulateArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// The metadata sidecar of a data file: same folder, the name up to its
-/// first dot, `.json` (run.csv.gz → run.json).
-fn sidecar(run: &std::path::Path) -> PathBuf {
-    let name = run.file_name().and_then(|n| n.to_str()).unwrap_or("run");
-    let stem = name.split('.').next().unwrap_or(name);
-    run.with_file_name(format!("{stem}.json"))
+/// The run's metadata: `--meta`, else the sidecar beside the data file.
+fn read_metadata(
+    run: &std::path::Path,
+    meta: Option<&std::path::Path>,
+) -> anyhow::Result<RunMetadata> {
+    let path = meta.map_or_else(|| metadata_sidecar(run), PathBuf::from);
+    let text = std::fs::read(&path).with_context(|| format!("reading {}", path.display()))?;
+    RunMetadata::from_json(&text).with_context(|| format!("in {}", path.display()))
 }
 
 fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
-    let meta_path = a.meta.clone().unwrap_or_else(|| sidecar(&a.run));
-    let text =
-        std::fs::read(&meta_path).with_context(|| format!("reading {}", meta_path.display()))?;
-    let meta =
-        RunMetadata::from_json(&text).with_context(|| format!("in {}", meta_path.display()))?;
+    let meta = read_metadata(&a.run, a.meta.as_deref())?;
     let opts = EstimateOptions {
-        estimator: match a.estimator {
-            EstimatorArg::Kf => EstimatorKind::Kf,
-            EstimatorArg::Lsq => EstimatorKind::Lsq,
-        },
+        estimator: a.estimator,
         cross_check: !a.no_cross_check,
         ..EstimateOptions::default()
     };
@@ -384,11 +362,7 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
 }
 
 fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<()> {
-    let meta_path = a.meta.clone().unwrap_or_else(|| sidecar(&a.run));
-    let text =
-        std::fs::read(&meta_path).with_context(|| format!("reading {}", meta_path.display()))?;
-    let meta =
-        RunMetadata::from_json(&text).with_context(|| format!("in {}", meta_path.display()))?;
+    let meta = read_metadata(&a.run, a.meta.as_deref())?;
     let cancel = AtomicBool::new(false);
     let mut last_stage = String::new();
     let report = diagnose_file(

@@ -13,7 +13,7 @@ use bytes::Bytes;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::api::upload_guard::BodyPace;
+use sinscal::config::BodyPace;
 use sinscal::io::data::DataFormat;
 
 /// A tmpfs of `mib` MiB mounted on a fresh temp dir, or `None` (said on
@@ -391,7 +391,7 @@ async fn send_bomb(app: &TestApp, line: &str, members: usize) -> (StatusCode, Va
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn gzip_bombs_of_comment_lines_are_refused_after_a_bounded_read() {
     let app = spawn_app(0).await;
-    let defaults = sinscal::server::Config::new(".");
+    let defaults = sinscal::config::Config::new(".");
     // 9537 MiB = 10 GB.
     let (status, p, compressed, cpu) = send_bomb(&app, "#\n", 9537).await;
     eprintln!(

@@ -19,7 +19,7 @@ pub fn reference_run() -> sinscal::sim::SimConfig {
     use sinscal::model::{Effects, ErrorParameters};
     use sinscal::sim::{Noise, Scheme, SimConfig};
     SimConfig {
-        site: sinscal::nav::Site::new(28.2215, 112.9924, 50.0),
+        site: sinscal::nav::Site::REFERENCE,
         sample_rate_hz: 100.0,
         scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
         params: ErrorParameters::paper(),

@@ -25,9 +25,9 @@ use tower_http::trace::TraceLayer;
 
 use self::auth::{roles, Auth};
 use self::error::{problem_response, ApiError, PROBLEM_JSON};
-use crate::server::disk::available_bytes;
-use crate::server::metrics::Metrics;
-use crate::server::Config;
+use crate::config::Config;
+use crate::disk::available_bytes;
+use crate::metrics::Metrics;
 use crate::store::Store;
 
 /// The OpenAPI document at the repository root: what the server serves is

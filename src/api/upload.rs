@@ -28,10 +28,10 @@ use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
 use super::AppState;
+use crate::disk::available_bytes;
 use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
-use crate::server::disk::available_bytes;
-use crate::server::metrics::UploadOutcome;
+use crate::metrics::UploadOutcome;
 use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunRow};
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.

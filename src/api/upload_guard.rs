@@ -10,16 +10,7 @@ use axum::body::{Body, Bytes};
 use futures_util::{Stream, StreamExt};
 use tokio::time::Instant;
 
-/// How slow a body may be.
-#[derive(Clone, Copy, Debug)]
-pub struct BodyPace {
-    /// Longest wait for the next chunk.
-    pub idle: Duration,
-    /// Least mean rate over the body so far, bytes/s …
-    pub min_bytes_per_s: u64,
-    /// … enforced from this long after the body started.
-    pub grace: Duration,
-}
+use crate::config::BodyPace;
 
 /// The body stalled or trickled; carried inside the body's error.
 #[derive(Debug, thiserror::Error)]

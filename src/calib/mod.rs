@@ -57,7 +57,7 @@ pub struct RunInfo {
 }
 
 /// Which estimator produces the primary result.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum EstimatorKind {
     /// The systematic Kalman filter (with the least-squares cross-check).

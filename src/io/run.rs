@@ -40,6 +40,16 @@ pub fn data_file_name(format: DataFormat, gzip: bool) -> &'static str {
     }
 }
 
+/// The metadata file that goes with a data file: the same folder, the
+/// file name up to its first dot, then `.json` (`run.csv.gz` → `run.json`).
+/// What the command line reads when no `--meta` is given, and how
+/// [`write_simulated_run`] names what it writes.
+pub fn metadata_sidecar(data: &Path) -> PathBuf {
+    let name = data.file_name().and_then(|n| n.to_str()).unwrap_or("run");
+    let stem = name.split('.').next().unwrap_or(name);
+    data.with_file_name(format!("{stem}.json"))
+}
+
 /// Simulates `cfg` into `dir` (created if needed): the data streamed to
 /// `run.csv`/`run.csv.gz`/`run.bin`, then `run.json` (metadata for
 /// `unit_serial`) and `truth.json`.
@@ -96,7 +106,7 @@ pub fn write_simulated_run(
         extra: Default::default(),
     };
     meta.validate()?;
-    let metadata = dir.join("run.json");
+    let metadata = metadata_sidecar(&data);
     write_json(&metadata, &meta)?;
     let truth = dir.join("truth.json");
     write_json(&truth, &Truth::from_sim_config(cfg))?;

@@ -19,8 +19,8 @@ use tokio_util::sync::CancellationToken;
 use crate::calib::{CalibError, CalibrationResult, EstimateOptions, Progress};
 use crate::diagnose::{DiagnoseError, DiagnoseOptions};
 use crate::io::meta::RunMetadata;
+use crate::metrics::{JobOutcome, Metrics};
 use crate::pipeline::{calibrate_file, diagnose_file};
-use crate::server::metrics::{JobOutcome, Metrics};
 use crate::store::{Claim, OnInadequate, Store, StoreError};
 
 /// Errors of the job layer (only the database can fail it: an estimator

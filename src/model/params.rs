@@ -231,7 +231,7 @@ impl ErrorParameters {
     /// Composes a residual estimate with these parameters: if `self` was
     /// used to compensate the data and `delta` is what remains in the
     /// compensated data, the total is K = K̂ + (I + K̂) δK, b = b̂ + (I + K̂) δb
-    /// (FIELD-NOTES 4), which keeps K_g upper triangular. A quadratic term
+    /// (CONTRACT §8.4), which keeps K_g upper triangular. A quadratic term
     /// scales with its own channel, D_i = D̂_i + (1 + K̂_ii) δD_i; the cross
     /// terms K̂_ij δD_j are of second order and dropped.
     pub fn compose(&self, delta: &ErrorParameters) -> ErrorParameters {

@@ -35,6 +35,16 @@ pub struct Site {
 }
 
 impl Site {
+    /// The site of the contract's metadata example (Changsha, 50 m): the
+    /// default of the command line's site flags, and where the simulated
+    /// runs of the tests and benchmarks stand.
+    pub const REFERENCE: Site = Site {
+        latitude_deg: 28.2215,
+        longitude_deg: 112.9924,
+        height_m: 50.0,
+        gravity_mps2: None,
+    };
+
     pub fn new(latitude_deg: f64, longitude_deg: f64, height_m: f64) -> Self {
         Site {
             latitude_deg,
@@ -122,7 +132,7 @@ mod tests {
 
     #[test]
     fn metadata_gravity_replaces_formula() {
-        let mut s = Site::new(28.2215, 112.9924, 50.0);
+        let mut s = Site::REFERENCE;
         assert!((s.gravity() - 9.791).abs() < 0.01);
         s.gravity_mps2 = Some(9.79136);
         assert_eq!(s.gravity(), 9.79136);

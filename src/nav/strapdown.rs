@@ -15,7 +15,7 @@
 //!
 //! The ½[ζ×] term is what keeps a resting unit at rest: the body rotation
 //! term ½Δθ×Δv contains the Earth rate the unit senses, and only the
-//! matching navigation-frame term cancels it (FIELD-NOTES 1). The
+//! matching navigation-frame term cancels it (CONTRACT §8.1). The
 //! second-order rotation term matters on a turntable: for a steady turn at
 //! rate ω under gravity, dropping it leaves −(1/6)[ω×]²f Δt³ per record,
 //! which the sculling term (−1/12) does not cancel but doubles; together

@@ -9,12 +9,13 @@ use std::time::{Duration, Instant};
 
 use reqwest::{Response, StatusCode};
 use serde_json::Value;
+use sinscal::config::Config;
 use sinscal::io::data::DataFormat;
 use sinscal::io::run::write_simulated_run;
 use sinscal::jobs::JobRunner;
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
-use sinscal::server::{Application, Config};
+use sinscal::server::Application;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::Store;
 

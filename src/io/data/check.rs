@@ -5,24 +5,11 @@
 use crate::record::{DataKind, Record};
 
 use super::error::{Column, DataError, Position};
-
-/// Largest accepted relative deviation of a time step from 1/sample_rate_hz.
-pub const STEP_TOLERANCE: f64 = 0.01;
-
-/// Largest accepted relative deviation of the mean step (time since the
-/// first record over the steps taken) from 1/sample_rate_hz. A unit's
-/// clock is good to a few parts in 10⁵; a step tolerance of 1 % alone lets
-/// a run at 100.5 Hz pass as 100 Hz and then fail in the estimator.
-pub const MEAN_RATE_TOLERANCE: f64 = 0.001;
+use super::layout::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
 
 /// Steps after which the mean step is checked: by then the jitter of single
 /// time stamps (within the step tolerance) averages below the mean tolerance.
 const MEAN_RATE_AFTER_STEPS: u64 = 1000;
-
-/// Column names of the increments kind, in file order.
-pub(crate) const INCREMENT_COLUMNS: [&str; 7] = ["t", "dthx", "dthy", "dthz", "dvx", "dvy", "dvz"];
-/// Column names of the rates kind, in file order.
-pub(crate) const RATE_COLUMNS: [&str; 7] = ["t", "wx", "wy", "wz", "fx", "fy", "fz"];
 
 pub(crate) fn column(kind: DataKind, index0: usize) -> Column {
     let names = match kind {

@@ -5,7 +5,7 @@
 
 use crate::record::DataKind;
 
-use super::check::{INCREMENT_COLUMNS, RATE_COLUMNS};
+use super::layout::{INCREMENT_COLUMNS, RATE_COLUMNS};
 
 /// The UTF-8 byte-order mark some spreadsheet programs put first.
 pub(crate) const UTF8_BOM: &[u8] = b"\xef\xbb\xbf";

@@ -4,7 +4,7 @@ use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
-use super::check::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
+use super::layout::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
 
 /// Where in a data file something went wrong.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

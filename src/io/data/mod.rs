@@ -32,13 +32,14 @@ mod check;
 mod csv;
 mod error;
 mod format;
+mod layout;
 mod reader;
 mod source;
 mod writer;
 
 pub use binary::RECORD_BYTES;
-pub use check::STEP_TOLERANCE;
 pub use error::{Column, DataError, Position};
 pub use format::{DataFormat, ReadLimits, UnknownFormat};
+pub use layout::STEP_TOLERANCE;
 pub use reader::RecordReader;
 pub use writer::{CsvWriter, F64leWriter, RecordWriter, WriteOptions};

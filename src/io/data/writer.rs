@@ -12,8 +12,8 @@ use flate2::Compression;
 use crate::record::Record;
 
 use super::binary;
-use super::check::INCREMENT_COLUMNS;
 use super::format::DataFormat;
+use super::layout::INCREMENT_COLUMNS;
 
 /// Writers hand their output on in blocks of about this size, so that a
 /// record costs no system call and gzip sees large inputs.
