@@ -11,6 +11,7 @@
 pub mod api;
 pub mod calib;
 pub mod config;
+pub mod design;
 pub mod diagnose;
 pub mod disk;
 pub mod io;

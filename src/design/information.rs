@@ -1,0 +1,301 @@
+//! The design objective: the 1-σ the systematic filter would give each
+//! parameter on a scheme, from the information it gains over each dwell
+//! and each turn, computed from the scheme's motion alone.
+//!
+//! `calib::plan` answers the same question by simulating the run's
+//! records and filtering them; that costs a pass over every record (0.6 s
+//! for the 3.2 h scheme at 100 Hz), too slow to score thousands of
+//! candidate schemes. Here the same filter (the same error dynamics,
+//! parameter columns, noise densities, priors and start covariance) is
+//! fed in larger pieces, using what the motion makes constant:
+//!
+//! - **At rest** the parameter columns are constant in time, so a window
+//!   of any length is summarised exactly by their time moments (two Gauss
+//!   points integrate the zeroth to third moments), and the filter steps
+//!   through a dwell in windows of up to `dwell_window_s` with a
+//!   zero-velocity update each. With updates this precise the velocity
+//!   record is as informative sampled every 10 s as every second (the
+//!   white accelerometer noise integrates to the same increments), which
+//!   the comparison with `plan` confirms.
+//! - **In a turn** the columns follow the attitude, so the turn is cut
+//!   into steps of at most 20 ms and 1° of rotation, each evaluated at its
+//!   midpoint from the trajectory's closed-form kinematics, and propagated
+//!   in windows of at most 1 s without updates (the reference point is not
+//!   known to rest while the unit turns).
+//!
+//! As in the estimator, the first and last half second of a dwell next to
+//! a turn carry no update (the pre-scan's guard), and a still stretch
+//! shorter than the pre-scan's shortest dwell is not a dwell.
+
+use nalgebra::{Matrix3, Matrix6, Vector3};
+
+use crate::calib::filter::{error_dynamics, SystematicFilter};
+use crate::calib::sensitivity::base_columns;
+use crate::calib::CalibError;
+use crate::model::{Group, PARAMETERS};
+use crate::nav::attitude::rotvec_to_dcm;
+use crate::nav::Site;
+use crate::sim::trajectory::{Kinematics, Motion, Trajectory};
+use crate::sim::Scheme;
+
+/// What the objective holds fixed besides the scheme.
+#[derive(Clone, Debug)]
+pub struct ObjectiveSettings {
+    pub site: Site,
+    /// Gyro angle random walk, rad/√s, and accelerometer velocity random
+    /// walk, m/s/√s.
+    pub arw: f64,
+    pub vrw: f64,
+    /// σ of a zero-velocity observation, m/s.
+    pub zupt_sigma_mps: f64,
+    /// Prior 1-σ of each parameter, SI, in `PARAMETERS` order.
+    pub prior_sigma: Vec<f64>,
+    /// The unit's start attitude: rotation vector in n, degrees.
+    pub initial_attitude_deg: [f64; 3],
+    /// Longest filter window at rest, s.
+    pub dwell_window_s: f64,
+    /// Guard at each end of a dwell next to motion, s.
+    pub guard_s: f64,
+    /// Shortest still stretch the pre-scan takes for a dwell, s.
+    pub min_dwell_s: f64,
+}
+
+/// What one step of the scheme added.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepGain {
+    /// Index into the scheme's steps.
+    pub step: usize,
+    pub resting: bool,
+    pub t_end: f64,
+    /// Information gained, nats: half the drop of log det of the
+    /// parameters' covariance over the step. A turn gains none by itself
+    /// (no update is made during it) but changes what the next dwell sees.
+    pub nats: f64,
+}
+
+/// The objective's answer for one scheme.
+#[derive(Clone, Debug)]
+pub struct Information {
+    /// Predicted 1-σ of each parameter, SI, in `PARAMETERS` order.
+    pub sigma_si: Vec<f64>,
+    pub duration_s: f64,
+    pub gains: Vec<StepGain>,
+}
+
+impl Information {
+    /// σ of parameter `i` in its canonical unit.
+    pub fn sigma_canonical(&self, i: usize) -> f64 {
+        self.sigma_si[i] / PARAMETERS[i].si_per_unit
+    }
+}
+
+/// Longest step in a turn, s, and largest rotation in one step, rad.
+const TURN_STEP_S: f64 = 0.1;
+const TURN_STEP_RAD: f64 = 1.0 * std::f64::consts::PI / 180.0;
+/// Longest window in a turn, s (the estimator's window).
+const TURN_WINDOW_S: f64 = 1.0;
+/// Rest at each end of a dwell stepped in the estimator's own windows.
+const FINE_REST_S: f64 = 10.0;
+
+/// The navigation covariance the filter starts from: the attitude the
+/// residual biases leave after alignment (tilt ≈ δb_a/g, heading ≈
+/// δb_g,E/ω_ie,N), three priors wide, and a unit at rest.
+pub fn start_covariance(site: &Site, prior_sigma: &[f64]) -> Matrix6<f64> {
+    let accel_bias = prior_sigma[first_of(Group::AccelBias)];
+    let gyro_bias = prior_sigma[first_of(Group::GyroBias)];
+    let tilt = 3.0 * accel_bias / site.gravity();
+    let heading = (3.0 * gyro_bias / site.omega_ie_n().y).min(0.1);
+    let mut p0 = Matrix6::zeros();
+    for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
+        p0[(i, i)] = s * s;
+    }
+    p0
+}
+
+fn first_of(group: Group) -> usize {
+    PARAMETERS
+        .iter()
+        .position(|p| p.group == group)
+        .expect("every family has parameters")
+}
+
+/// Adds the parameter columns of a motion sampled at `kin` over a step of
+/// `h` seconds whose midpoint is `tau` into the window.
+fn add_step(kf: &mut SystematicFilter, kin: &Kinematics, h: f64, tau: f64) {
+    let dtheta = kin.omega_ib_b * h;
+    let dv = kin.f_b * h;
+    base_columns(&kin.c_b_n, &dtheta, &dv, h, |i, rows, col| {
+        kf.add_column(i, rows, &col, tau)
+    });
+}
+
+/// A resting window of length `t`: the constant columns at two Gauss
+/// points, exact for the zeroth to third time moments.
+fn add_rest(kf: &mut SystematicFilter, kin: &Kinematics, t: f64) {
+    let offset = t / (2.0 * 3f64.sqrt());
+    for tau in [0.5 * t - offset, 0.5 * t + offset] {
+        add_step(kf, kin, 0.5 * t, tau);
+    }
+}
+
+/// −½ log det of the parameters' covariance (scaled to their priors, so
+/// the number does not depend on units).
+fn information_nats(kf: &SystematicFilter) -> Result<f64, CalibError> {
+    let cov = kf.parameter_covariance_si()?;
+    let scale = kf.scale();
+    let n = cov.nrows();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |r, c| cov[(r, c)] / (scale[r] * scale[c]));
+    let chol = scaled
+        .cholesky()
+        .ok_or_else(|| CalibError::Numerical("parameter covariance not positive".into()))?;
+    Ok(-chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>())
+}
+
+/// The predicted σ of every parameter on `scheme`.
+pub fn scheme_information(
+    scheme: &Scheme,
+    s: &ObjectiveSettings,
+) -> Result<Information, CalibError> {
+    let phi = Vector3::from(s.initial_attitude_deg).map(f64::to_radians);
+    let c_b_n0: Matrix3<f64> = rotvec_to_dcm(&phi);
+    let traj = Trajectory::new(scheme, &c_b_n0, &s.site).map_err(CalibError::Unusable)?;
+    let mut kf = SystematicFilter::new(
+        error_dynamics(&s.site.omega_ie_n(), &s.site.f_rest_n()),
+        &start_covariance(&s.site, &s.prior_sigma),
+        &s.prior_sigma,
+        s.arw,
+        s.vrw,
+        s.zupt_sigma_mps,
+    );
+    let segments = traj.segments();
+    let mut gains = Vec::with_capacity(segments.len());
+    let mut before = 0.0;
+    // Steps of zero length leave no segment; map segments back to steps.
+    let step_of = step_indices(scheme);
+    for (k, seg) in segments.iter().enumerate() {
+        let mid = 0.5 * (seg.t0 + seg.t1);
+        match seg.motion {
+            Motion::Dwell => {
+                let kin = traj.kinematics_in(k, mid);
+                let after_motion = k > 0;
+                let before_motion = k + 1 < segments.len();
+                let lead = if after_motion { s.guard_s } else { 0.0 };
+                let tail = if before_motion { s.guard_s } else { 0.0 };
+                let length = seg.t1 - seg.t0;
+                let observed = length - lead - tail;
+                if length < s.min_dwell_s || observed <= 0.0 {
+                    rest_without_updates(&mut kf, &kin, length);
+                } else {
+                    rest_without_updates(&mut kf, &kin, lead);
+                    // Fine windows where the velocity carries what the
+                    // turn did; coarse ones in between.
+                    let fine = (FINE_REST_S * 2.0).min(observed);
+                    let coarse = observed - fine;
+                    for (length, window) in [
+                        (0.5 * fine, TURN_WINDOW_S),
+                        (coarse, s.dwell_window_s),
+                        (0.5 * fine, TURN_WINDOW_S),
+                    ] {
+                        observe_rest(&mut kf, &kin, length, window)?;
+                    }
+                    rest_without_updates(&mut kf, &kin, tail);
+                }
+            }
+            Motion::Rotate { profile, .. } => {
+                turn(&mut kf, &traj, k, profile.angle.abs())
+            }
+            Motion::Flip { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
+        }
+        let now = information_nats(&kf)?;
+        gains.push(StepGain {
+            step: step_of[k],
+            resting: matches!(seg.motion, Motion::Dwell),
+            t_end: seg.t1,
+            nats: now - before,
+        });
+        before = now;
+    }
+    let (_, sigma_si) = kf.parameters()?;
+    Ok(Information {
+        sigma_si,
+        duration_s: traj.duration(),
+        gains,
+    })
+}
+
+/// Rest with a zero-velocity update at the end of every window of at most
+/// `window` seconds.
+fn observe_rest(
+    kf: &mut SystematicFilter,
+    kin: &Kinematics,
+    length: f64,
+    window: f64,
+) -> Result<(), CalibError> {
+    if length <= 0.0 {
+        return Ok(());
+    }
+    let n = (length / window).ceil().max(1.0);
+    let t = length / n;
+    for _ in 0..n as usize {
+        add_rest(kf, kin, t);
+        kf.propagate(t);
+        kf.update_zero_velocity(&Vector3::zeros())?;
+        kf.take_navigation_errors();
+    }
+    Ok(())
+}
+
+/// Rest without updates (a guard, or a stretch too short to be a dwell),
+/// in windows of at most a second as the estimator would step it.
+fn rest_without_updates(kf: &mut SystematicFilter, kin: &Kinematics, length: f64) {
+    if length <= 0.0 {
+        return;
+    }
+    let n = (length / TURN_WINDOW_S).ceil().max(1.0);
+    let t = length / n;
+    for _ in 0..n as usize {
+        add_rest(kf, kin, t);
+        kf.propagate(t);
+    }
+}
+
+/// A turn or flip: steps of at most 20 ms and 1°, windows of at most 1 s.
+fn turn(kf: &mut SystematicFilter, traj: &Trajectory, k: usize, angle_rad: f64) {
+    let seg = &traj.segments()[k];
+    let length = seg.t1 - seg.t0;
+    let n_windows = (length / TURN_WINDOW_S).ceil().max(1.0) as usize;
+    let window = length / n_windows as f64;
+    // A flip's S-curve peaks at twice its mean rate.
+    let steps_total = (length / TURN_STEP_S)
+        .ceil()
+        .max(2.0 * angle_rad / TURN_STEP_RAD)
+        .max(1.0);
+    let per_window = (steps_total / n_windows as f64).ceil().max(1.0) as usize;
+    let h = window / per_window as f64;
+    for w in 0..n_windows {
+        let t_ws = seg.t0 + w as f64 * window;
+        for j in 0..per_window {
+            let tau = (j as f64 + 0.5) * h;
+            let kin = traj.kinematics_in(k, t_ws + tau);
+            add_step(kf, &kin, h, tau);
+        }
+        kf.propagate(window);
+    }
+}
+
+/// For each trajectory segment, the index of the scheme step it came
+/// from (zero-length dwells and turns leave no segment).
+fn step_indices(scheme: &Scheme) -> Vec<usize> {
+    use crate::sim::scheme::Step;
+    scheme
+        .steps
+        .iter()
+        .enumerate()
+        .filter(|(_, step)| match step {
+            Step::Dwell { dwell_s } => *dwell_s > 0.0,
+            Step::Rotate { rotate } => rotate.angle_deg != 0.0,
+            Step::Flip { .. } => true,
+        })
+        .map(|(i, _)| i)
+        .collect()
+}

@@ -1,0 +1,400 @@
+//! Scheme design: the shortest rotation scheme whose predicted 1-σ meets a
+//! target for every parameter (`sinscal design`).
+//!
+//! - `information`: the fast objective, the σ the systematic filter would
+//!   reach on a scheme from the information of its dwells and turns,
+//!   computed from the motion without records (checked against
+//!   `calib::plan` on the built-in schemes).
+//! - `search`: the beam search over turn sequences and the dwells.
+//! - `target`: per-parameter accuracy targets (Table 1, or a file).
+//!
+//! A design meets `target / margin` in predicted σ, so that the target
+//! itself holds in nearly every run (margin 3: a parameter beyond its
+//! target is a 3σ event).
+
+pub mod information;
+pub mod search;
+pub mod target;
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::calib::{CalibError, EstimateOptions, NoiseDensity};
+use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
+use crate::model::PARAMETERS;
+use crate::nav::Site;
+use crate::sim::scheme::{Frame, DEFAULT_DWELL_S};
+use crate::sim::{HandTurns, Scheme};
+use information::{Information, ObjectiveSettings};
+use search::{SearchSpace, Scorer};
+pub use target::{Target, TargetError};
+
+/// Which axes the table can turn the unit about.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Axes {
+    /// The unit's own axes (a table carrying the unit).
+    #[default]
+    Body,
+    /// East, North, Up (a table with fixed axes).
+    Nav,
+    Both,
+}
+
+/// Errors of a design.
+#[derive(Debug, thiserror::Error)]
+pub enum DesignError {
+    #[error("design: {0}")]
+    Invalid(String),
+    #[error(transparent)]
+    Calib(#[from] CalibError),
+}
+
+/// What the engineer asks for.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesignRequest {
+    /// Accuracy per parameter, canonical units, `PARAMETERS` order.
+    #[serde(skip)]
+    pub target: Option<Target>,
+    pub noise: NoiseDensity,
+    pub axes: Axes,
+    pub rate_dps: f64,
+    pub accel_dps2: f64,
+    pub min_dwell_s: f64,
+    /// Longest acceptable run, s.
+    pub max_duration_s: Option<f64>,
+    /// Predicted σ must be at most target / margin.
+    pub margin: f64,
+    /// Score the turns as an operator makes them by hand (SPEC §4), with
+    /// hand turns drawn from `seed`.
+    pub by_hand: bool,
+    pub seed: u64,
+    pub site: Site,
+    /// The unit's start attitude, rotation vector in n, degrees.
+    pub initial_attitude_deg: [f64; 3],
+}
+
+impl Default for DesignRequest {
+    fn default() -> Self {
+        DesignRequest {
+            target: None,
+            noise: NoiseDensity {
+                gyro_arw_deg_rt_h: 0.0003,
+                accel_vrw_ug_rt_hz: 5.0,
+            },
+            axes: Axes::Body,
+            rate_dps: 10.0,
+            accel_dps2: 20.0,
+            min_dwell_s: 60.0,
+            max_duration_s: None,
+            margin: 3.0,
+            by_hand: false,
+            seed: 1,
+            site: Site::REFERENCE,
+            initial_attitude_deg: [0.0; 3],
+        }
+    }
+}
+
+/// One parameter's prediction against its goal.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PredictedParameter {
+    pub sigma: f64,
+    pub target: f64,
+    /// σ × margin / target: at most 1 when the goal is met.
+    pub ratio: f64,
+    pub unit: String,
+}
+
+/// A reference scheme on the same target.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Comparison {
+    pub scheme: String,
+    /// The shortest uniform dwell that meets the goal, and the run's
+    /// duration with it; `None` when no dwell up to an hour does.
+    pub dwell_s: Option<f64>,
+    pub duration_s: Option<f64>,
+    /// Its worst σ × margin / target at the default 600 s dwells.
+    pub worst_ratio_at_600_s: f64,
+}
+
+/// The designer's answer.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Design {
+    /// The scheme, as SPEC §4 JSON reads it.
+    pub scheme: Scheme,
+    pub duration_s: f64,
+    pub target: String,
+    pub margin: f64,
+    pub by_hand: bool,
+    pub parameters: BTreeMap<String, PredictedParameter>,
+    /// The parameters within 5 % of their goal: what sets the length.
+    pub binding: Vec<String>,
+    pub comparisons: Vec<Comparison>,
+    /// How many schemes were scored.
+    pub evaluations: usize,
+}
+
+/// The objective's settings for a request: the estimator's own priors,
+/// start covariance, zero-velocity σ and pre-scan guard and minimum dwell.
+pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
+    let opts = EstimateOptions::default();
+    ObjectiveSettings {
+        site: req.site,
+        arw: req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H,
+        vrw: req.noise.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
+        zupt_sigma_mps: opts.zupt_sigma_mps,
+        prior_sigma: crate::calib::estimate::prior_sigma(opts.prior_scale),
+        initial_attitude_deg: req.initial_attitude_deg,
+        dwell_window_s: 10.0,
+        guard_s: opts.detect.guard_s,
+        min_dwell_s: opts.detect.min_dwell_s,
+    }
+}
+
+fn validate(req: &DesignRequest) -> Result<(), DesignError> {
+    let positive = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 {
+            Ok(())
+        } else {
+            Err(DesignError::Invalid(format!("{name} must be positive, got {v}")))
+        }
+    };
+    positive("the gyro ARW", req.noise.gyro_arw_deg_rt_h)?;
+    positive("the accelerometer VRW", req.noise.accel_vrw_ug_rt_hz)?;
+    positive("the turn rate", req.rate_dps)?;
+    positive("the turn acceleration", req.accel_dps2)?;
+    positive("the margin", req.margin)?;
+    let min_dwell = EstimateOptions::default().detect.min_dwell_s;
+    if !(req.min_dwell_s.is_finite() && req.min_dwell_s >= min_dwell) {
+        return Err(DesignError::Invalid(format!(
+            "the shortest dwell must be at least {min_dwell} s (what the estimator takes for \
+             a dwell), got {}",
+            req.min_dwell_s
+        )));
+    }
+    req.site.validate().map_err(DesignError::Invalid)?;
+    Ok(())
+}
+
+/// Designs the shortest scheme for `req`.
+pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
+    validate(req)?;
+    let target = req.target.clone().unwrap_or_else(Target::table1);
+    let settings = objective_settings(req);
+    let hand = HandTurns::default();
+    let realise = |s: &Scheme| -> Result<Scheme, String> {
+        if req.by_hand {
+            Scheme::by_hand(s, req.seed, &hand)
+        } else {
+            Ok(s.clone())
+        }
+    };
+    let scorer = Scorer {
+        settings: &settings,
+        goal_si: target
+            .accuracy
+            .iter()
+            .zip(PARAMETERS.iter())
+            .map(|(a, p)| a * p.si_per_unit / req.margin)
+            .collect(),
+        realise: &realise,
+        evaluations: std::cell::Cell::new(0),
+    };
+    let frames: &[Frame] = match req.axes {
+        Axes::Body => &[Frame::Body],
+        Axes::Nav => &[Frame::Nav],
+        Axes::Both => &[Frame::Body, Frame::Nav],
+    };
+    let space = SearchSpace {
+        turns: SearchSpace::turns_about(frames),
+        rate_dps: req.rate_dps,
+        accel_dps2: req.accel_dps2,
+        min_dwell_s: req.min_dwell_s,
+        max_dwell_s: 3600.0,
+        max_turns: 24,
+        beam: 4,
+    };
+    // Rank sequences at a dwell near the answer's: a first search at 300 s
+    // finds the length, a second at the dwell it needed ranks again.
+    let first = search::search_sequences(&space, &scorer, 300.0)?;
+    let Some(first) = first else {
+        return Err(DesignError::Invalid(format!(
+            "no sequence of up to {} turns with dwells up to {} s reaches the target at \
+             margin {}",
+            space.max_turns, space.max_dwell_s, req.margin
+        )));
+    };
+    let probe = first.dwells[0];
+    let second = search::search_sequences(&space, &scorer, probe)?;
+    let pick = match second {
+        Some(s) if s.information.duration_s < first.information.duration_s => s,
+        _ => first,
+    };
+    let trimmed = search::trim_dwells(pick, &space, &scorer)?;
+    // Whole seconds, rounded up: a dwell is set on a table's controller.
+    let dwells: Vec<f64> = trimmed.dwells.iter().map(|d| d.ceil()).collect();
+    let name = format!(
+        "designed-{}-{}",
+        trimmed.turns.len() + 1,
+        if req.by_hand { "by-hand" } else { "table" }
+    );
+    let scheme = search::build(&name, &trimmed.turns, &dwells, &space);
+    let info = scorer.information(&scheme)?;
+    if let Some(max) = req.max_duration_s {
+        if info.duration_s > max {
+            return Err(DesignError::Invalid(format!(
+                "the shortest scheme found lasts {:.0} s, more than --max-duration {max} s",
+                info.duration_s
+            )));
+        }
+    }
+    let comparisons = ["ten-position", "ten-position-9+9"]
+        .iter()
+        .map(|name| compare(name, &scorer))
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(report(
+        scheme,
+        &info,
+        &target,
+        req,
+        &scorer,
+        comparisons,
+    ))
+}
+
+/// A built-in scheme on the same goal: the uniform dwell it needs.
+fn compare(name: &str, scorer: &Scorer) -> Result<Comparison, DesignError> {
+    let at = |d: f64| -> Result<Information, DesignError> {
+        let s = Scheme::builtin(name, d).expect("a built-in scheme");
+        Ok(scorer.information(&s)?)
+    };
+    let worst_600 = scorer.worst(&at(DEFAULT_DWELL_S)?);
+    let (mut lo, mut hi) = (20.0f64, 3600.0f64);
+    if scorer.worst(&at(hi)?) > 1.0 {
+        return Ok(Comparison {
+            scheme: name.to_string(),
+            dwell_s: None,
+            duration_s: None,
+            worst_ratio_at_600_s: worst_600,
+        });
+    }
+    while hi / lo > 1.01 {
+        let mid = (lo * hi).sqrt();
+        if scorer.worst(&at(mid)?) <= 1.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let dwell = hi.ceil();
+    Ok(Comparison {
+        scheme: name.to_string(),
+        dwell_s: Some(dwell),
+        duration_s: Some(at(dwell)?.duration_s),
+        worst_ratio_at_600_s: worst_600,
+    })
+}
+
+fn report(
+    scheme: Scheme,
+    info: &Information,
+    target: &Target,
+    req: &DesignRequest,
+    scorer: &Scorer,
+    comparisons: Vec<Comparison>,
+) -> Design {
+    let ratios = scorer.ratios(info);
+    let parameters: BTreeMap<String, PredictedParameter> = PARAMETERS
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            (
+                p.name.to_string(),
+                PredictedParameter {
+                    sigma: info.sigma_canonical(i),
+                    target: target.accuracy[i],
+                    ratio: ratios[i],
+                    unit: p.unit.to_string(),
+                },
+            )
+        })
+        .collect();
+    let worst = ratios.iter().copied().fold(0.0, f64::max);
+    let binding = PARAMETERS
+        .iter()
+        .zip(&ratios)
+        .filter(|(_, r)| **r >= 0.95 * worst)
+        .map(|(p, _)| p.name.to_string())
+        .collect();
+    Design {
+        scheme,
+        duration_s: info.duration_s,
+        target: target.name.clone(),
+        margin: req.margin,
+        by_hand: req.by_hand,
+        parameters,
+        binding,
+        comparisons,
+        evaluations: scorer.evaluations.get(),
+    }
+}
+
+impl Design {
+    /// The printed summary: duration, σ against target per parameter, the
+    /// binding parameters and the built-in schemes on the same target.
+    pub fn summary(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let (dwells, turns) = self.scheme.counts();
+        let _ = writeln!(
+            s,
+            "scheme {}: {} dwells, {} turns, {:.0} s ({:.2} h); target {} with margin {}{}",
+            self.scheme.name,
+            dwells,
+            turns,
+            self.duration_s,
+            self.duration_s / 3600.0,
+            self.target,
+            self.margin,
+            if self.by_hand { ", turned by hand" } else { "" }
+        );
+        let _ = writeln!(
+            s,
+            "{:<20} {:>12} {:>12} {:>7}  unit",
+            "parameter", "sigma", "target", "ratio"
+        );
+        for p in PARAMETERS.iter() {
+            let q = &self.parameters[p.name];
+            let _ = writeln!(
+                s,
+                "{:<20} {:>12.5} {:>12.5} {:>7.2}  {}",
+                p.name, q.sigma, q.target, q.ratio, q.unit
+            );
+        }
+        let _ = writeln!(s, "binding: {}", self.binding.join(", "));
+        for c in &self.comparisons {
+            match (c.dwell_s, c.duration_s) {
+                (Some(d), Some(t)) => {
+                    let _ = writeln!(
+                        s,
+                        "{}: needs {d:.0} s dwells, {t:.0} s ({:.2} h); worst ratio {:.2} at 600 s dwells",
+                        c.scheme,
+                        t / 3600.0,
+                        c.worst_ratio_at_600_s
+                    );
+                }
+                _ => {
+                    let _ = writeln!(
+                        s,
+                        "{}: does not reach the target with dwells up to an hour; worst ratio {:.2} at 600 s dwells",
+                        c.scheme, c.worst_ratio_at_600_s
+                    );
+                }
+            }
+        }
+        s
+    }
+}
