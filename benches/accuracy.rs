@@ -16,6 +16,9 @@
 //! A dwell that is not a whole number of 0.1 s (e.g. 600.03) starts turns
 //! between the pre-scan's blocks, as on real runs.
 //!
+//! `--scheme FILE`: a SPEC §4 scheme JSON (e.g. from `sinscal design`)
+//! instead of the reference scheme.
+//!
 //! `--by-hand`: every turn a SPEC §4 flip (`Scheme::by_hand`, seeded by
 //! the run's seed).
 //!
@@ -89,7 +92,15 @@ fn main() {
     let per_seed = args.iter().any(|a| a == "--per-seed");
     let raw = args.iter().any(|a| a == "--raw");
     let by_hand = args.iter().any(|a| a == "--by-hand");
-    let flags = ["--dwell", "--rate", "--window", "--latitude", "--turn-rate"];
+    let scheme_file: Option<String> = value(&args, "--scheme");
+    let flags = [
+        "--dwell",
+        "--rate",
+        "--window",
+        "--latitude",
+        "--turn-rate",
+        "--scheme",
+    ];
     let n: u64 = args
         .iter()
         .enumerate()
@@ -141,7 +152,13 @@ fn main() {
         } else {
             Noise::default_navigation_grade()
         };
-        let mut scheme = Scheme::builtin("ten-position-9+9", dwell).unwrap();
+        let mut scheme = match &scheme_file {
+            Some(path) => {
+                let text = std::fs::read(path).expect("reading --scheme");
+                serde_json::from_slice::<Scheme>(&text).expect("a SPEC §4 scheme")
+            }
+            None => Scheme::builtin("ten-position-9+9", dwell).unwrap(),
+        };
         if let Some(r) = turn_rate {
             // Fast turns, as by hand: the rate reached in a tenth of a turn.
             for step in &mut scheme.steps {
@@ -222,12 +239,16 @@ fn main() {
         println!("{r}");
     }
     println!(
-        "{n} seeds{}, {} noise, {dwell} s dwells, {rate} Hz, noise {}, filter only",
+        "{n} seeds{}, {} noise, {}, {rate} Hz, noise {}, filter only",
         if raw { ", uncalibrated units" } else { "" },
         if tactical {
             "tactical"
         } else {
             "navigation-grade"
+        },
+        match &scheme_file {
+            Some(f) => format!("scheme {f}"),
+            None => format!("{dwell} s dwells"),
         },
         if known_noise { "known" } else { "measured" }
     );

@@ -11,6 +11,7 @@ use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::{EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal::design::{design, Axes, DesignRequest, Target};
 use sinscal::diagnose::plot::gap_svg;
 use sinscal::diagnose::DiagnoseOptions;
 use sinscal::io::meta::{read_json, write_json, RunMetadata, Truth};
@@ -40,6 +41,9 @@ enum Command {
     Calibrate(CalibrateArgs),
     /// Predict the 1-σ a scheme reaches at a given noise, before any data.
     Plan(PlanArgs),
+    /// Design the shortest scheme whose predicted 1-σ meets an accuracy
+    /// target for every parameter.
+    Design(DesignArgs),
     /// Find where the run and a simulation of its calibration disagree,
     /// name the effect outside the base model that explains it, add it
     /// and show the gap shrink.
@@ -129,6 +133,58 @@ struct PlanArgs {
     /// Write the plan as JSON here.
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+#[derive(clap::Args)]
+struct DesignArgs {
+    /// `table1` (the seed paper's Table 1) or a JSON file of accuracies
+    /// by parameter name, canonical units (others keep Table 1).
+    #[arg(long, default_value = "table1")]
+    target: String,
+    /// Divide every target by this (3: three times tighter).
+    #[arg(long, default_value_t = 1.0)]
+    tighten: f64,
+    /// Predicted σ must be at most target / margin.
+    #[arg(long, default_value_t = 3.0)]
+    margin: f64,
+    /// Gyro angle random walk, deg/√h.
+    #[arg(long, default_value_t = 0.0003)]
+    arw: f64,
+    /// Accelerometer velocity random walk, µg/√Hz.
+    #[arg(long, default_value_t = 5.0)]
+    vrw: f64,
+    /// The axes the table turns the unit about.
+    #[arg(long, value_enum, default_value_t = Axes::default())]
+    axes: Axes,
+    /// Turn rate, deg/s.
+    #[arg(long, default_value_t = 10.0)]
+    rate_dps: f64,
+    /// Turn acceleration, deg/s².
+    #[arg(long, default_value_t = 20.0)]
+    accel_dps2: f64,
+    /// Shortest dwell, s.
+    #[arg(long, default_value_t = 60.0)]
+    min_dwell: f64,
+    /// Longest acceptable run, s.
+    #[arg(long)]
+    max_duration: Option<f64>,
+    /// Score the scheme as an operator turns it by hand (SPEC §4).
+    #[arg(long)]
+    by_hand: bool,
+    /// Seed of the hand turns.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    #[arg(long, default_value_t = Site::REFERENCE.latitude_deg)]
+    latitude: f64,
+    /// The unit's start attitude, rotation vector in n, degrees "x,y,z".
+    #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
+    attitude_error: Option<[f64; 3]>,
+    /// Write the scheme (SPEC §4 JSON) here.
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write the whole design (predictions, comparisons) as JSON here.
+    #[arg(long)]
+    report: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -361,6 +417,49 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+fn run_design(a: DesignArgs) -> anyhow::Result<()> {
+    let target = if a.target == "table1" {
+        Target::table1()
+    } else {
+        let text = std::fs::read(&a.target).with_context(|| format!("reading {}", a.target))?;
+        Target::from_json(&a.target, &text)?
+    };
+    let target = if a.tighten == 1.0 {
+        target
+    } else {
+        target.tightened(a.tighten)
+    };
+    let req = DesignRequest {
+        target: Some(target),
+        noise: NoiseDensity {
+            gyro_arw_deg_rt_h: a.arw,
+            accel_vrw_ug_rt_hz: a.vrw,
+        },
+        axes: a.axes,
+        rate_dps: a.rate_dps,
+        accel_dps2: a.accel_dps2,
+        min_dwell_s: a.min_dwell,
+        max_duration_s: a.max_duration,
+        margin: a.margin,
+        by_hand: a.by_hand,
+        seed: a.seed,
+        site: Site {
+            latitude_deg: a.latitude,
+            ..Site::REFERENCE
+        },
+        initial_attitude_deg: a.attitude_error.unwrap_or([0.0; 3]),
+    };
+    let d = design(&req)?;
+    print!("{}", d.summary());
+    write_json(&a.out, &d.scheme)?;
+    eprintln!("wrote {}", a.out.display());
+    if let Some(path) = &a.report {
+        write_json(path, &d)?;
+        eprintln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
 fn run_diagnose(a: DiagnoseArgs) -> anyhow::Result<()> {
     let meta = read_metadata(&a.run, a.meta.as_deref())?;
     let cancel = AtomicBool::new(false);
@@ -415,6 +514,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Calibrate(a) => run_calibrate(a),
         Command::Plan(a) => run_plan(a),
         Command::Diagnose(a) => run_diagnose(a),
+        Command::Design(a) => run_design(a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Token(TokenCommand::Create {
             role,

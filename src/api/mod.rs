@@ -6,6 +6,7 @@ pub mod auth;
 pub mod error;
 mod jobs;
 mod runs;
+mod schemes;
 mod tokens;
 mod units;
 pub mod upload;
@@ -71,6 +72,7 @@ pub fn router(state: AppState) -> Router {
         .merge(runs::router())
         .merge(jobs::router())
         .merge(units::router())
+        .merge(schemes::router())
         .merge(tokens::router())
         .merge(upload)
         .method_not_allowed_fallback(|| async { ApiError::MethodNotAllowed });

@@ -1,0 +1,143 @@
+//! Scheme design over HTTP: `POST /schemes/design` answers what
+//! `sinscal design` prints, as JSON.
+//!
+//! A design scores a few thousand schemes (tens of CPU seconds), so it runs
+//! on the blocking pool, one at a time: a second request while one runs is
+//! answered 503 with Retry-After rather than queued behind it, so that
+//! designs never take the calibration workers' cores two at a time.
+
+use std::collections::BTreeMap;
+
+use axum::extract::rejection::JsonRejection;
+use axum::routing::post;
+use axum::{Json, Router};
+use serde::Deserialize;
+use tokio::sync::Semaphore;
+
+use super::auth::{roles, Auth};
+use super::error::ApiError;
+use super::AppState;
+use crate::calib::NoiseDensity;
+use crate::design::{design, Axes, Design, DesignError, DesignRequest, Target};
+use crate::nav::Site;
+
+/// One design at a time.
+static DESIGNING: Semaphore = Semaphore::const_new(1);
+/// What a refused request is told to wait, s.
+const BUSY_RETRY_AFTER_S: u64 = 30;
+
+pub fn router() -> Router<AppState> {
+    Router::new().route("/schemes/design", post(design_scheme))
+}
+
+/// The target: `"table1"` or accuracies by parameter name.
+#[derive(Debug, Deserialize)]
+#[serde(untagged)]
+enum TargetSpec {
+    Named(String),
+    Accuracies(BTreeMap<String, f64>),
+}
+
+/// The request body; every field is optional and defaults as the command
+/// line does.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DesignBody {
+    target: Option<TargetSpec>,
+    tighten: Option<f64>,
+    margin: Option<f64>,
+    arw_deg_rt_h: Option<f64>,
+    vrw_ug_rt_hz: Option<f64>,
+    axes: Option<Axes>,
+    rate_dps: Option<f64>,
+    accel_dps2: Option<f64>,
+    min_dwell_s: Option<f64>,
+    max_duration_s: Option<f64>,
+    by_hand: Option<bool>,
+    seed: Option<u64>,
+    latitude_deg: Option<f64>,
+    attitude_error_deg: Option<[f64; 3]>,
+}
+
+impl DesignBody {
+    fn request(self) -> Result<DesignRequest, ApiError> {
+        let defaults = DesignRequest::default();
+        let target = match self.target {
+            None => Target::table1(),
+            Some(TargetSpec::Named(n)) if n == "table1" => Target::table1(),
+            Some(TargetSpec::Named(n)) => {
+                return Err(ApiError::Unprocessable(format!(
+                    "target: {n:?} is not a named target (use \"table1\" or an object of \
+                     accuracies by parameter name)"
+                )))
+            }
+            Some(TargetSpec::Accuracies(map)) => {
+                let text = serde_json::to_vec(&map).map_err(|e| ApiError::Internal(e.to_string()))?;
+                Target::from_json("request", &text)
+                    .map_err(|e| ApiError::Unprocessable(e.to_string()))?
+            }
+        };
+        let target = match self.tighten {
+            None => target,
+            Some(f) if f.is_finite() && f > 0.0 => target.tightened(f),
+            Some(f) => {
+                return Err(ApiError::Unprocessable(format!(
+                    "tighten must be a positive number, got {f}"
+                )))
+            }
+        };
+        let latitude = self.latitude_deg.unwrap_or(Site::REFERENCE.latitude_deg);
+        Ok(DesignRequest {
+            target: Some(target),
+            noise: NoiseDensity {
+                gyro_arw_deg_rt_h: self
+                    .arw_deg_rt_h
+                    .unwrap_or(defaults.noise.gyro_arw_deg_rt_h),
+                accel_vrw_ug_rt_hz: self
+                    .vrw_ug_rt_hz
+                    .unwrap_or(defaults.noise.accel_vrw_ug_rt_hz),
+            },
+            axes: self.axes.unwrap_or(defaults.axes),
+            rate_dps: self.rate_dps.unwrap_or(defaults.rate_dps),
+            accel_dps2: self.accel_dps2.unwrap_or(defaults.accel_dps2),
+            min_dwell_s: self.min_dwell_s.unwrap_or(defaults.min_dwell_s),
+            max_duration_s: self.max_duration_s,
+            margin: self.margin.unwrap_or(defaults.margin),
+            by_hand: self.by_hand.unwrap_or(defaults.by_hand),
+            seed: self.seed.unwrap_or(defaults.seed),
+            site: Site {
+                latitude_deg: latitude,
+                ..Site::REFERENCE
+            },
+            initial_attitude_deg: self
+                .attitude_error_deg
+                .unwrap_or(defaults.initial_attitude_deg),
+        })
+    }
+}
+
+async fn design_scheme(
+    auth: Auth,
+    body: Result<Json<DesignBody>, JsonRejection>,
+) -> Result<Json<Design>, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let Json(body) = body.map_err(|e| ApiError::Unprocessable(e.body_text()))?;
+    let req = body.request()?;
+    let permit = DESIGNING.try_acquire().map_err(|_| ApiError::Unavailable {
+        detail: "a scheme design is running; retry when it has finished".into(),
+        retry_after_s: BUSY_RETRY_AFTER_S,
+    })?;
+    // The permit goes with the computation: a client that hangs up does
+    // not free the slot while its design still runs.
+    let designed = tokio::task::spawn_blocking(move || {
+        let _permit = permit;
+        design(&req)
+    })
+        .await
+        .map_err(|e| ApiError::Internal(format!("design task: {e}")))?;
+    match designed {
+        Ok(d) => Ok(Json(d)),
+        Err(DesignError::Invalid(msg)) => Err(ApiError::Unprocessable(msg)),
+        Err(e @ DesignError::Calib(_)) => Err(ApiError::Unprocessable(e.to_string())),
+    }
+}

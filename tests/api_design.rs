@@ -1,0 +1,62 @@
+//! `POST /api/v1/schemes/design`: engineers get the designer's answer as
+//! JSON; stations are refused, and so is a malformed request, with a
+//! problem naming what is wrong.
+
+mod common;
+
+use common::{problem, spawn_app};
+use reqwest::StatusCode;
+use serde_json::{json, Value};
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
+    let app = spawn_app(0).await;
+    let engineer = app.create_token("engineer").await;
+    let station = app.create_token("station").await;
+    let post = |token: &str, body: Value| {
+        app.http
+            .post(app.url("/schemes/design"))
+            .bearer_auth(token)
+            .json(&body)
+            .send()
+    };
+
+    let r = post(&station, json!({})).await.unwrap();
+    assert_eq!(problem(r).await.0, StatusCode::FORBIDDEN);
+
+    let r = post(&engineer, json!({"target": "table2"})).await.unwrap();
+    let (status, p) = problem(r).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p["detail"].as_str().unwrap().contains("table2"), "{p}");
+
+    let r = post(&engineer, json!({"target": {"gyro_bias_q": 1.0}}))
+        .await
+        .unwrap();
+    let (status, p) = problem(r).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p["detail"].as_str().unwrap().contains("gyro_bias_q"), "{p}");
+
+    let r = post(&engineer, json!({"margin": 3, "colour": "red"}))
+        .await
+        .unwrap();
+    let (status, p) = problem(r).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(p["detail"].as_str().unwrap().contains("colour"), "{p}");
+
+    // A loose goal at tactical-grade noise: a quick design.
+    let body = json!({"target": "table1", "tighten": 0.2, "arw_deg_rt_h": 0.001,
+                      "vrw_ug_rt_hz": 10, "min_dwell_s": 60});
+    let r = post(&engineer, body).await.unwrap();
+    assert_eq!(r.status(), StatusCode::OK);
+    let d: Value = r.json().await.unwrap();
+    let params = d["parameters"].as_object().unwrap();
+    assert_eq!(params.len(), 24);
+    for (name, p) in params {
+        assert!(p["ratio"].as_f64().unwrap() <= 1.0, "{name}: {p}");
+    }
+    assert!(d["duration_s"].as_f64().unwrap() > 0.0);
+    // The scheme is a SPEC §4 scheme the simulator accepts.
+    let scheme: sinscal::sim::Scheme = serde_json::from_value(d["scheme"].clone()).unwrap();
+    scheme.validate().unwrap();
+    app.stop().await;
+}

@@ -1,0 +1,83 @@
+//! `sinscal design` as a library: the designed scheme meets its goal by the
+//! objective and by `plan`'s filter over simulated records, beats the
+//! built-in schemes on the same goal, and refuses what it cannot do.
+
+use sinscal::calib::plan::{plan, PlanInput};
+use sinscal::calib::{EstimateOptions, NoiseDensity};
+use sinscal::design::{design, Axes, DesignRequest, Target};
+use sinscal::nav::Site;
+
+fn tactical() -> DesignRequest {
+    DesignRequest {
+        target: Some(Target::table1().tightened(0.2)),
+        noise: NoiseDensity {
+            gyro_arw_deg_rt_h: 0.001,
+            accel_vrw_ug_rt_hz: 10.0,
+        },
+        ..DesignRequest::default()
+    }
+}
+
+/// The design's prediction against plan's filter on the same scheme, and
+/// the design against the built-in schemes' needs.
+fn check(req: &DesignRequest) {
+    let d = design(req).unwrap();
+    eprint!("{}", d.summary());
+    for (name, p) in &d.parameters {
+        assert!(p.ratio <= 1.0, "{name}: ratio {}", p.ratio);
+    }
+    let planned = plan(
+        &PlanInput {
+            scheme: d.scheme.clone(),
+            site: Site::REFERENCE,
+            sample_rate_hz: 20.0,
+            noise: req.noise,
+            initial_attitude_error_deg: req.initial_attitude_deg,
+        },
+        &EstimateOptions::default(),
+    )
+    .unwrap();
+    for (name, p) in &d.parameters {
+        let filter = planned.parameters[name].sigma;
+        let rel = p.sigma / filter - 1.0;
+        assert!(rel.abs() < 0.05, "{name}: design σ {} vs plan {filter}", p.sigma);
+    }
+    for c in &d.comparisons {
+        if let Some(t) = c.duration_s {
+            assert!(d.duration_s <= t, "{} is shorter: {t} s", c.scheme);
+        }
+    }
+}
+
+#[test]
+fn a_body_axis_design_meets_its_goal_and_beats_the_built_in_schemes() {
+    check(&tactical());
+}
+
+#[test]
+fn a_navigation_axis_table_gets_a_navigation_axis_scheme() {
+    let req = DesignRequest {
+        axes: Axes::Nav,
+        ..tactical()
+    };
+    let d = design(&req).unwrap();
+    let json = serde_json::to_string(&d.scheme).unwrap();
+    assert!(!json.contains("\"body\""), "{json}");
+    check(&req);
+}
+
+#[test]
+fn impossible_requests_are_refused_with_a_reason() {
+    let req = DesignRequest {
+        min_dwell_s: 5.0,
+        ..tactical()
+    };
+    let e = design(&req).unwrap_err().to_string();
+    assert!(e.contains("shortest dwell"), "{e}");
+    let req = DesignRequest {
+        max_duration_s: Some(600.0),
+        ..tactical()
+    };
+    let e = design(&req).unwrap_err().to_string();
+    assert!(e.contains("max-duration"), "{e}");
+}
