@@ -1,0 +1,175 @@
+//! Jobs as rows: reading them, counting them, cancelling them, and queueing
+//! a diagnosis. (What a worker does to the job it holds is `queue`.)
+
+use std::collections::BTreeMap;
+
+use sqlx::FromRow;
+
+use super::db::{now_ms, Store};
+use super::error::StoreError;
+use super::kinds::{JobKind, JobState};
+
+#[derive(Clone, Debug, FromRow)]
+pub struct JobRow {
+    pub id: String,
+    pub run_id: String,
+    pub kind: JobKind,
+    pub state: JobState,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub lease_owner: Option<String>,
+    pub lease_expires_at: Option<i64>,
+    pub heartbeat_at: Option<i64>,
+    pub progress: f64,
+    pub stage: Option<String>,
+    pub cancel_requested: bool,
+    pub error: Option<String>,
+    pub created_at: i64,
+    pub started_at: Option<i64>,
+    pub finished_at: Option<i64>,
+}
+
+/// What `queue_diagnose_job` did.
+#[derive(Clone, Debug)]
+pub enum DiagnoseQueued {
+    /// A new diagnose job, queued.
+    Created(JobRow),
+    /// A diagnose job for this run was already queued or running: it.
+    Existing(JobRow),
+    NoRun,
+    /// The queue holds `max_queue` jobs already.
+    QueueFull,
+}
+
+/// How many jobs of one state (`SELECT state, COUNT(*) AS n ...`).
+#[derive(FromRow)]
+pub(super) struct StateCount {
+    state: JobState,
+    n: i64,
+}
+
+/// Counts keyed by the state's name (the JSON key and metrics label).
+pub(super) fn by_state_name(rows: Vec<StateCount>) -> BTreeMap<String, i64> {
+    rows.into_iter()
+        .map(|c| (c.state.as_str().to_string(), c.n))
+        .collect()
+}
+
+/// Jobs waiting for a worker, on either pool or inside a transaction.
+pub(super) async fn count_queued<'e>(e: impl sqlx::SqliteExecutor<'e>) -> Result<i64, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
+            .fetch_one(e)
+            .await?,
+    )
+}
+
+impl Store {
+    pub async fn queue_depth(&self) -> Result<i64, StoreError> {
+        count_queued(&self.read).await
+    }
+
+    pub async fn get_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+        Ok(sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&self.read)
+            .await?)
+    }
+
+    /// Jobs per state (every state present, zero included).
+    pub async fn job_counts(&self) -> Result<BTreeMap<String, i64>, StoreError> {
+        let mut counts: BTreeMap<String, i64> = JobState::ALL
+            .iter()
+            .map(|s| (s.as_str().to_string(), 0))
+            .collect();
+        let rows = sqlx::query_as("SELECT state, COUNT(*) AS n FROM jobs GROUP BY state")
+            .fetch_all(&self.read)
+            .await?;
+        counts.extend(by_state_name(rows));
+        Ok(counts)
+    }
+
+    /// A run's most recent diagnose job, if any.
+    pub async fn latest_diagnose_job(&self, run_id: &str) -> Result<Option<JobRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+             ORDER BY created_at DESC, id DESC LIMIT 1",
+        )
+        .bind(run_id)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Cancels a queued job at once, or asks a running one's worker to stop.
+    /// Returns the job afterwards, `None` if there is none.
+    pub async fn cancel_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+        let now = now_ms();
+        let mut tx = self.begin_write().await?;
+        sqlx::query(
+            "UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1
+             WHERE id = ? AND state = 'queued'",
+        )
+        .bind(now)
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND state = 'running'")
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        let job = sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(job)
+    }
+
+    /// Queues a diagnose job for a run, unless the run does not exist, a
+    /// diagnose job for it is already queued or running (returned instead),
+    /// or the queue is full.
+    pub async fn queue_diagnose_job(
+        &self,
+        run_id: &str,
+        job_id: &str,
+        max_attempts: i64,
+        max_queue: i64,
+    ) -> Result<DiagnoseQueued, StoreError> {
+        let now = now_ms();
+        let mut tx = self.begin_write().await?;
+        let exists: Option<i64> = sqlx::query_scalar("SELECT 1 FROM runs WHERE id = ?")
+            .bind(run_id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        if exists.is_none() {
+            return Ok(DiagnoseQueued::NoRun);
+        }
+        let active: Option<JobRow> = sqlx::query_as(
+            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+                AND state IN ('queued', 'running')",
+        )
+        .bind(run_id)
+        .fetch_optional(&mut *tx)
+        .await?;
+        if let Some(job) = active {
+            return Ok(DiagnoseQueued::Existing(job));
+        }
+        if count_queued(&mut *tx).await? >= max_queue {
+            return Ok(DiagnoseQueued::QueueFull);
+        }
+        let job = sqlx::query_as(
+            "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
+             VALUES (?, ?, 'diagnose', 'queued', ?, ?, ?)
+             RETURNING *",
+        )
+        .bind(job_id)
+        .bind(run_id)
+        .bind(max_attempts)
+        .bind(now)
+        .bind(now)
+        .fetch_one(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(DiagnoseQueued::Created(job))
+    }
+}
