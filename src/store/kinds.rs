@@ -103,42 +103,33 @@ impl JobState {
     }
 }
 
-impl FromStr for Role {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Role::ALL
-            .into_iter()
-            .find(|r| r.as_str() == s)
-            .ok_or_else(|| format!("unknown role {s:?}: station, engineer or admin"))
+/// "a, b or c": the spellings a parse error lists.
+fn one_of(names: impl Iterator<Item = &'static str>) -> String {
+    let names: Vec<_> = names.collect();
+    match names.split_last() {
+        Some((last, [])) => last.to_string(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
     }
 }
 
-impl FromStr for JobKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        JobKind::ALL
-            .into_iter()
-            .find(|k| k.as_str() == s)
-            .ok_or_else(|| format!("unknown job kind {s:?}"))
-    }
-}
-
-impl FromStr for JobState {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        JobState::ALL
-            .into_iter()
-            .find(|k| k.as_str() == s)
-            .ok_or_else(|| format!("unknown job state {s:?}"))
-    }
-}
-
-/// The same TEXT boundary for each vocabulary: `Display` and the SQLite
-/// column go through `as_str` and `FromStr`. (serde is derived, so that a
+/// The same TEXT boundary for each vocabulary (`$what` names it in a
+/// parse error): `FromStr`, `Display` and the SQLite column go through
+/// `as_str` and `ALL`. (serde is derived, so that a
 /// refused role in a request keeps serde's own message; a test checks the
 /// spellings agree.)
 macro_rules! stored_as_text {
-    ($($t:ty),*) => {$(
+    ($($t:ty: $what:literal),*) => {$(
+        impl FromStr for $t {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                <$t>::ALL.into_iter().find(|v| v.as_str() == s).ok_or_else(|| {
+                    let all = one_of(<$t>::ALL.into_iter().map(<$t>::as_str));
+                    format!("unknown {} {s:?}: {all}", $what)
+                })
+            }
+        }
+
         impl fmt::Display for $t {
             fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 f.write_str(self.as_str())
@@ -173,7 +164,7 @@ macro_rules! stored_as_text {
     )*};
 }
 
-stored_as_text!(Role, JobKind, JobState);
+stored_as_text!(Role: "role", JobKind: "job kind", JobState: "job state");
 
 #[cfg(test)]
 mod tests {
@@ -197,6 +188,13 @@ mod tests {
         assert_eq!(
             "root".parse::<Role>(),
             Err("unknown role \"root\": station, engineer or admin".to_string())
+        );
+        assert_eq!(
+            "paused".parse::<JobState>(),
+            Err(
+                "unknown job state \"paused\": queued, running, succeeded, failed or cancelled"
+                    .to_string()
+            )
         );
         assert!(serde_json::from_str::<JobState>("\"paused\"").is_err());
         assert!(serde_json::from_str::<Role>("\"Admin\"").is_err());

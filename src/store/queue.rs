@@ -97,6 +97,28 @@ struct ClaimedRun {
 }
 
 impl Store {
+    /// A write transaction in which the fenced job is already marked
+    /// succeeded, for its product to be written beside; `None` (and nothing
+    /// written) when the lease no longer holds.
+    async fn begin_succeeded(
+        &self,
+        fence: &Fence,
+        now: i64,
+    ) -> Result<Option<WriteTx>, StoreError> {
+        let mut tx = self.begin_write().await?;
+        let sql = Fenced::update(
+            "state = 'succeeded', progress = 1, stage = 'done', finished_at = ?4,
+                lease_owner = NULL, lease_expires_at = NULL",
+        );
+        let updated = sql.query(fence).bind(now).execute(&mut *tx).await?;
+        if updated.rows_affected() == 1 {
+            Ok(Some(tx))
+        } else {
+            tx.rollback().await?;
+            Ok(None)
+        }
+    }
+
     /// Claims the oldest claimable job for `owner`: a queued job whose
     /// backoff has passed, or a running job whose lease expired (its worker
     /// died). Expired jobs that were asked to cancel, or that used their
@@ -207,11 +229,9 @@ impl Store {
         let now = now_ms();
         let fence = &claim.fence;
         let result_json = serde_json::to_string(result)?;
-        let mut tx = self.begin_write().await?;
-        if !mark_succeeded(&mut tx, fence, now).await? {
-            tx.rollback().await?;
+        let Some(mut tx) = self.begin_succeeded(fence, now).await? else {
             return Ok(false);
-        }
+        };
         let stored = StoredResult {
             run_id: &claim.run_id,
             job_id: &fence.job_id,
@@ -255,11 +275,9 @@ impl Store {
         let now = now_ms();
         let fence = &claim.fence;
         let report_json = serde_json::to_string(report)?;
-        let mut tx = self.begin_write().await?;
-        if !mark_succeeded(&mut tx, fence, now).await? {
-            tx.rollback().await?;
+        let Some(mut tx) = self.begin_succeeded(fence, now).await? else {
             return Ok(false);
-        }
+        };
         sqlx::query(
             "INSERT INTO diagnoses (job_id, run_id, completed_at, report) VALUES (?, ?, ?, ?)",
         )
@@ -325,13 +343,91 @@ impl Store {
     }
 }
 
-/// Marks the fenced job succeeded inside the caller's write transaction;
-/// false when the lease no longer holds (the caller then writes nothing).
-async fn mark_succeeded(tx: &mut WriteTx, fence: &Fence, now: i64) -> Result<bool, StoreError> {
-    let sql = Fenced::update(
-        "state = 'succeeded', progress = 1, stage = 'done', finished_at = ?4,
-            lease_owner = NULL, lease_expires_at = NULL",
-    );
-    let updated = sql.query(fence).bind(now).execute(&mut **tx).await?;
-    Ok(updated.rows_affected() == 1)
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::{InsertOutcome, NewRun};
+
+    async fn store_with_one_job() -> (tempfile::TempDir, Store, String) {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("q.db"), 1).await.unwrap();
+        let new = NewRun {
+            run_id: "run-1".into(),
+            job_id: "job-1".into(),
+            unit_serial: "U-1".into(),
+            sha256: "00".into(),
+            size_bytes: 0,
+            records: 0,
+            format: "csv".into(),
+            gzip: false,
+            blob_path: "runs/ru/run-1.csv".into(),
+            metadata: "{}".into(),
+            recorded_at: None,
+            uploaded_at: 0,
+            max_attempts: 2,
+            uploaded_by: None,
+        };
+        let outcome = store.insert_run_and_job(&new, 10).await.unwrap();
+        assert_eq!(outcome, InsertOutcome::Created);
+        (dir, store, "job-1".into())
+    }
+
+    /// A lease that ran out is reclaimed as the next attempt; from then on
+    /// every fenced write of the old attempt is refused, and the new one's
+    /// writes land, their states read back typed.
+    #[tokio::test]
+    async fn every_fenced_write_of_a_reclaimed_attempt_is_refused() {
+        let (_dir, store, job) = store_with_one_job().await;
+        let lease = Duration::from_secs(30);
+        let old = store.claim_job("a", Duration::ZERO).await.unwrap().unwrap();
+        assert_eq!((old.kind, old.fence.attempt), (JobKind::Calibrate, 1));
+        tokio::time::sleep(Duration::from_millis(5)).await;
+        let new = store.claim_job("b", lease).await.unwrap().unwrap();
+        assert_eq!(new.fence.attempt, 2);
+
+        assert_eq!(
+            store.heartbeat(&old.fence, lease, 0.5, "x").await.unwrap(),
+            None
+        );
+        let failed = store.fail_job(&old.fence, "e", true, Duration::ZERO);
+        assert_eq!(failed.await.unwrap(), None);
+        assert!(!store.finish_cancelled(&old.fence).await.unwrap());
+        assert!(!store.release_job(&old.fence).await.unwrap());
+        let report = serde_json::json!({});
+        assert!(!store.complete_diagnose_job(&old, &report).await.unwrap());
+
+        assert_eq!(
+            store.heartbeat(&new.fence, lease, 0.5, "x").await.unwrap(),
+            Some(false)
+        );
+        // The second attempt is the last: a retryable failure fails for good.
+        let failed = store.fail_job(&new.fence, "e", true, Duration::ZERO);
+        assert_eq!(failed.await.unwrap(), Some(JobState::Failed));
+        let row = store.get_job(&job).await.unwrap().unwrap();
+        assert_eq!(
+            (row.kind, row.state),
+            (JobKind::Calibrate, JobState::Failed)
+        );
+        assert_eq!(row.error.as_deref(), Some("e"));
+        let counts = store.job_counts().await.unwrap();
+        assert_eq!(counts["failed"], 1);
+        assert_eq!(counts.len(), JobState::ALL.len());
+    }
+
+    /// A failed attempt with attempts left goes back to the queue; a
+    /// release at shutdown does not count the attempt.
+    #[tokio::test]
+    async fn retry_and_release_put_the_job_back_in_the_queue() {
+        let (_dir, store, job) = store_with_one_job().await;
+        let lease = Duration::from_secs(30);
+        let first = store.claim_job("a", lease).await.unwrap().unwrap();
+        let failed = store.fail_job(&first.fence, "e", true, Duration::ZERO);
+        assert_eq!(failed.await.unwrap(), Some(JobState::Queued));
+        let second = store.claim_job("a", lease).await.unwrap().unwrap();
+        assert_eq!(second.fence.attempt, 2);
+        assert!(store.release_job(&second.fence).await.unwrap());
+        let row = store.get_job(&job).await.unwrap().unwrap();
+        assert_eq!((row.state, row.attempts), (JobState::Queued, 1));
+        assert_eq!(store.queue_depth().await.unwrap(), 1);
+    }
 }
