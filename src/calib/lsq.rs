@@ -26,11 +26,12 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::estimate::{
-    align_start, dwell_at, initial_navigation_covariance, prior_sigma, walk, PassContext,
-};
 use super::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
+use super::normal::NormalEquations;
+use super::prescan::dwell_at;
+use super::priors::{initial_navigation_covariance, prior_sigma, white_noise_density};
 use super::segment::RunSegment;
+use super::walk::{align_start, walk, PassContext};
 use super::CalibError;
 use crate::model::{ErrorParameters, N_PARAMS};
 
@@ -106,7 +107,7 @@ pub(super) fn lsq_pass(
     let c_b_n0 = align_start(ctx, &comp)?;
     let prior = prior_sigma(ctx.opts.prior_scale);
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-    let p0 = initial_navigation_covariance(ctx);
+    let p0 = initial_navigation_covariance(site, ctx.opts.prior_scale);
     // Used only to accumulate the parameter columns between nodes.
     let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
 
@@ -155,31 +156,19 @@ fn solve(
 ) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
     let n_p = N_PARAMS;
     let k_nodes = nodes.len();
-    let n = n_p + 3 * k_nodes;
     let phi = |k: usize| n_p + 3 * k;
-    let mut normal = DMatrix::<f64>::zeros(n, n);
-    let mut rhs = DVector::<f64>::zeros(n);
+    let mut normal = NormalEquations::new(n_p + 3 * k_nodes);
     // Priors: scaled parameters have unit variance; φ at the start as the
     // filter's.
-    for i in 0..n_p {
-        normal[(i, i)] += 1.0;
-    }
+    normal.add_diagonal(0..n_p, 1.0);
     let p0_phi_inv = p0
         .fixed_view::<3, 3>(0, 0)
         .into_owned()
         .try_inverse()
         .ok_or_else(|| CalibError::Numerical("singular attitude prior".into()))?;
-    for i in 0..3 {
-        for j in 0..3 {
-            normal[(phi(0) + i, phi(0) + j)] += p0_phi_inv[(i, j)];
-        }
-    }
+    normal.add_block3(phi(0), &p0_phi_inv);
 
-    let mut qc = nalgebra::Matrix6::zeros();
-    for i in 0..3 {
-        qc[(i, i)] = ctx.arw * ctx.arw;
-        qc[(3 + i, 3 + i)] = ctx.vrw * ctx.vrw;
-    }
+    let qc = white_noise_density(ctx.arw, ctx.vrw);
     for k in 0..k_nodes - 1 {
         let next = &nodes[k + 1];
         let a = transition(f, next.t);
@@ -206,27 +195,17 @@ fn solve(
             d[i] = -a_xv[i];
             d[3 + i] = next.v[i] - a_xv[3 + i];
         }
-        let ltw = l.transpose() * &w;
-        let block = &ltw * &l;
-        let g = -(&ltw * d);
-        // Scatter into the normal equations: indices of (p, φ_k, φ_{k+1}).
         let idx: Vec<usize> = (0..n_p)
             .chain(phi(k)..phi(k) + 3)
             .chain(phi(k + 1)..phi(k + 1) + 3)
             .collect();
-        for (a_i, &gi) in idx.iter().enumerate() {
-            rhs[gi] += g[a_i];
-            for (b_i, &gj) in idx.iter().enumerate() {
-                normal[(gi, gj)] += block[(a_i, b_i)];
-            }
-        }
+        normal.add_observation(&idx, &l, &w, &d);
     }
-    let chol = normal.cholesky().ok_or_else(|| {
+    let sol = normal.solve().ok_or_else(|| {
         CalibError::Numerical("least-squares normal equations are singular".into())
     })?;
-    let u = chol.solve(&rhs);
-    let cov_diag = chol.inverse().diagonal();
+    let cov_diag = sol.cov.diagonal();
     Ok((0..n_p)
-        .map(|i| (u[i] * prior[i], cov_diag[i].max(0.0).sqrt() * prior[i]))
+        .map(|i| (sol.u[i] * prior[i], cov_diag[i].max(0.0).sqrt() * prior[i]))
         .unzip())
 }

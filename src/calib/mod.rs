@@ -6,18 +6,25 @@
 pub mod align;
 pub mod estimate;
 pub mod filter;
+pub mod kf_pass;
 pub mod lsq;
 pub mod model_check;
+pub(crate) mod normal;
+pub mod options;
 pub mod plan;
+pub mod prescan;
+pub mod priors;
 pub mod result;
 pub mod segment;
 pub mod sensitivity;
 pub mod sources;
+pub mod walk;
 
 use serde::{Deserialize, Serialize};
 
-pub use estimate::{estimate, EstimateOptions, NoiseDensity};
+pub use estimate::estimate;
 pub use model_check::ModelCheck;
+pub use options::{EstimateOptions, NoiseDensity};
 pub use result::{CalibrationResult, ParameterEstimate};
 pub use segment::{DetectOptions, RunSegment, SegmentKind};
 

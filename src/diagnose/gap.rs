@@ -25,9 +25,11 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::DiagnoseError;
-use crate::calib::estimate::{initial_navigation_covariance, prior_sigma, walk, PassContext};
 use crate::calib::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
 use crate::calib::lsq::NodeSchedule;
+use crate::calib::normal::NormalEquations;
+use crate::calib::priors::{initial_navigation_covariance, prior_sigma, white_noise_density};
+use crate::calib::walk::{walk, PassContext};
 use crate::calib::CalibError;
 use crate::model::{Compensator, Effects, ErrorParameters, N_PARAMS};
 use crate::nav::attitude::attitude_difference_n;
@@ -67,7 +69,7 @@ pub(crate) fn measured_nodes(
     let comp = params.compensator();
     let prior = prior_sigma(ctx.opts.prior_scale);
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-    let p0 = initial_navigation_covariance(ctx);
+    let p0 = initial_navigation_covariance(site, ctx.opts.prior_scale);
     let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
     let dt = 1.0 / ctx.run.sample_rate_hz;
     let rec_no = |t: f64| ((t - ctx.scan.t_begin) / dt).round() as u64;
@@ -358,17 +360,13 @@ impl GapProblem {
     ) -> Result<Self, DiagnoseError> {
         let site = &ctx.run.site;
         let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-        let p0 = initial_navigation_covariance(ctx);
+        let p0 = initial_navigation_covariance(site, ctx.opts.prior_scale);
         let p0_phi_inv = p0
             .fixed_view::<3, 3>(0, 0)
             .into_owned()
             .try_inverse()
             .ok_or_else(|| DiagnoseError::Numerical("singular attitude prior".into()))?;
-        let mut qc = Matrix6::zeros();
-        for i in 0..3 {
-            qc[(i, i)] = ctx.arw * ctx.arw;
-            qc[(3 + i, 3 + i)] = ctx.vrw * ctx.vrw;
-        }
+        let qc = white_noise_density(ctx.arw, ctx.vrw);
         let k_nodes = nodes.t.len();
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         let gap = |k: usize| nodes.v[k] - sig.v_sim[k];
@@ -416,19 +414,10 @@ impl GapProblem {
         let n_e = effects.len();
         let phi = |k: usize| n_p + n_e + 3 * k;
         let n = n_p + n_e + 3 * self.n_nodes;
-        let mut normal = DMatrix::<f64>::zeros(n, n);
-        let mut rhs = DVector::<f64>::zeros(n);
-        for i in 0..n_p {
-            normal[(i, i)] += 1.0;
-        }
-        for i in 0..n_e {
-            normal[(n_p + i, n_p + i)] += 1.0 / (EFFECT_PRIOR * EFFECT_PRIOR);
-        }
-        for i in 0..3 {
-            for j in 0..3 {
-                normal[(phi(0) + i, phi(0) + j)] += self.p0_phi_inv[(i, j)];
-            }
-        }
+        let mut normal = NormalEquations::new(n);
+        normal.add_diagonal(0..n_p, 1.0);
+        normal.add_diagonal(n_p..n_p + n_e, 1.0 / (EFFECT_PRIOR * EFFECT_PRIOR));
+        normal.add_block3(phi(0), &self.p0_phi_inv);
         let local = |k: usize| -> Vec<usize> {
             (0..n_p + n_e).chain(phi(k)..phi(k) + 6).collect::<Vec<_>>()
         };
@@ -450,23 +439,12 @@ impl GapProblem {
             l
         };
         for (k, s) in self.stretches.iter().enumerate() {
-            let l = design(k, s);
-            let ltw = l.transpose() * &s.w;
-            let block = &ltw * &l;
-            let g = -(&ltw * &s.d);
-            let idx = local(k);
-            for (ai, &gi) in idx.iter().enumerate() {
-                rhs[gi] += g[ai];
-                for (bi, &gj) in idx.iter().enumerate() {
-                    normal[(gi, gj)] += block[(ai, bi)];
-                }
-            }
+            normal.add_observation(&local(k), &design(k, s), &s.w, &s.d);
         }
-        let chol = normal.cholesky().ok_or_else(|| {
+        let sol = normal.solve().ok_or_else(|| {
             DiagnoseError::Numerical("the gap's normal equations are singular".into())
         })?;
-        let u = chol.solve(&rhs);
-        let cov = chol.inverse();
+        let (u, cov) = (sol.u, sol.cov);
         let mut chi2 = 0.0;
         let mut dof = 0.0;
         let mut residual = Vec::with_capacity(self.stretches.len());

@@ -35,7 +35,9 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use crate::calib::estimate::{align_start, estimate_scanned, scan_run, PassContext};
+use crate::calib::estimate::estimate_scanned;
+use crate::calib::prescan::scan_run;
+use crate::calib::walk::{align_start, PassContext};
 use crate::calib::{
     CalibError, CalibrationResult, EstimateOptions, ParameterEstimate, Progress, RecordSource,
     RunInfo, SegmentKind,
@@ -668,7 +670,7 @@ pub fn diagnose(
         })
     })?;
     let problem = GapProblem::new(&ctx, &nodes, &sig, lib.n)?;
-    let prior = crate::calib::estimate::prior_sigma(opts.estimate.prior_scale);
+    let prior = crate::calib::priors::prior_sigma(opts.estimate.prior_scale);
     stage(progress, 0.9, "selecting effects");
 
     let kinds = stretch_kinds(&nodes, &scan.segments);

@@ -22,7 +22,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::DiagnoseError;
-use crate::calib::estimate::Prescan;
+use crate::calib::prescan::Prescan;
 use crate::calib::{RecordSource, SegmentKind};
 use crate::model::Compensator;
 use crate::nav::attitude::rotvec_to_dcm;
