@@ -1,10 +1,11 @@
 //! The calibration driver: passes of alignment and an estimator over the
 //! scanned run, each pass compensating the data with the estimate of the
-//! one before (docs/CONTRACT.md), until the correction is small against
+//! one before (the SPEC §2 compensation, docs/CONTRACT.md), until the correction is small against
 //! its σ; then the cross-check with the other estimator and the result.
 
 use std::sync::atomic::AtomicBool;
 
+use super::error::CalibError;
 use super::kf_pass::{kf_pass, Pass};
 use super::lsq::lsq_pass;
 use super::options::EstimateOptions;
@@ -13,8 +14,8 @@ use super::priors::prior_sigma;
 use super::result::{
     AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, ParameterEstimate,
 };
+use super::run::{EstimatorKind, Progress, RecordSource, RunInfo};
 use super::walk::PassContext;
-use super::{CalibError, EstimatorKind, Progress, RecordSource, RunInfo};
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 use crate::nav::attitude::euler_from_dcm;

@@ -5,6 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::error::CalibError;
 use super::filter::{error_dynamics, Innovation, SystematicFilter};
 use super::model_check::{CheckAccumulator, ModelCheck};
 use super::prescan::dwell_at;
@@ -12,7 +13,6 @@ use super::priors::{initial_navigation_covariance, prior_sigma};
 use super::result::{Convergence, DwellResidual};
 use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
-use super::CalibError;
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// Sums over one dwell's zero-velocity innovations, from which the

@@ -26,13 +26,13 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::error::CalibError;
 use super::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
 use super::normal::NormalEquations;
 use super::prescan::dwell_at;
 use super::priors::{initial_navigation_covariance, prior_sigma, white_noise_density};
 use super::segment::RunSegment;
 use super::walk::{align_start, walk, PassContext};
-use super::CalibError;
 use crate::model::{ErrorParameters, N_PARAMS};
 
 /// Stretches each dwell is cut into.

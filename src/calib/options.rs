@@ -3,8 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::run::EstimatorKind;
 use super::segment::DetectOptions;
-use super::EstimatorKind;
 
 /// Sensor noise densities used as process noise.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -5,9 +5,10 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use super::error::CalibError;
 use super::options::EstimateOptions;
+use super::run::{RecordSource, RunInfo};
 use super::segment::{DetectOptions, RunSegment, SegmentKind, Segmenter, StartActivity};
-use super::{CalibError, RecordSource, RunInfo};
 
 /// What the pre-scan learns about a run.
 #[derive(Clone, Debug)]

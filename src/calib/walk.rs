@@ -8,11 +8,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::{Matrix3, Vector3};
 
 use super::align;
+use super::error::CalibError;
 use super::filter::SystematicFilter;
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
+use super::run::{RecordSource, RunInfo};
 use super::sensitivity::base_columns;
-use super::{CalibError, RecordSource, RunInfo};
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::Compensator;
 use crate::nav::Strapdown;
