@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
-use super::DiagnoseError;
+use super::error::DiagnoseError;
 use crate::calib::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
 use crate::calib::lsq::NodeSchedule;
 use crate::calib::normal::NormalEquations;

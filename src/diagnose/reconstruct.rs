@@ -21,7 +21,7 @@
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::DiagnoseError;
+use super::error::DiagnoseError;
 use crate::calib::prescan::Prescan;
 use crate::calib::{RecordSource, SegmentKind};
 use crate::model::Compensator;
