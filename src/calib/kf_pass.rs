@@ -6,10 +6,9 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::error::CalibError;
-use super::filter::{error_dynamics, Innovation, SystematicFilter};
+use super::filter::Innovation;
 use super::model_check::{CheckAccumulator, ModelCheck};
 use super::prescan::dwell_at;
-use super::priors::{initial_navigation_covariance, prior_sigma};
 use super::result::{Convergence, DwellResidual};
 use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
@@ -89,19 +88,10 @@ pub(super) fn kf_pass(
     params: &ErrorParameters,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Pass, CalibError> {
-    let site = &ctx.run.site;
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
 
-    let prior = prior_sigma(ctx.opts.prior_scale);
-    let mut kf = SystematicFilter::new(
-        error_dynamics(&site.omega_ie_n(), &site.f_rest_n()),
-        &initial_navigation_covariance(site, ctx.opts.prior_scale),
-        &prior,
-        ctx.arw,
-        ctx.vrw,
-        ctx.opts.zupt_sigma_mps,
-    );
+    let mut kf = ctx.filter(ctx.opts.zupt_sigma_mps);
 
     let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
     // One slot kept for the last window, so the history never exceeds

@@ -27,7 +27,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::error::CalibError;
-use super::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
+use super::filter::{error_dynamics, process_noise, transition, NAV};
 use super::normal::NormalEquations;
 use super::prescan::dwell_at;
 use super::priors::{initial_navigation_covariance, prior_sigma, white_noise_density};
@@ -109,7 +109,7 @@ pub(super) fn lsq_pass(
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
     let p0 = initial_navigation_covariance(site, ctx.opts.prior_scale);
     // Used only to accumulate the parameter columns between nodes.
-    let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
+    let mut sens = ctx.filter(1.0);
 
     let window_s = ctx.window() as f64 / ctx.run.sample_rate_hz;
     let mut nodes: Vec<Node> = vec![Node {

@@ -9,9 +9,10 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::align;
 use super::error::CalibError;
-use super::filter::SystematicFilter;
+use super::filter::{error_dynamics, SystematicFilter};
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
+use super::priors::{initial_navigation_covariance, prior_sigma};
 use super::run::{RecordSource, RunInfo};
 use super::sensitivity::base_columns;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
@@ -40,6 +41,22 @@ impl PassContext<'_> {
     /// Records per window.
     pub fn window(&self) -> usize {
         ((self.opts.window_s * self.run.sample_rate_hz).round() as usize).max(1)
+    }
+
+    /// The systematic filter a pass starts from: the error dynamics at the
+    /// run's site, the start covariance and the priors, the noise in use,
+    /// and zero-velocity observations of σ `zupt_sigma_mps` (a pass that
+    /// only accumulates the parameter columns makes none).
+    pub fn filter(&self, zupt_sigma_mps: f64) -> SystematicFilter {
+        let site = &self.run.site;
+        SystematicFilter::new(
+            error_dynamics(&site.omega_ie_n(), &site.f_rest_n()),
+            &initial_navigation_covariance(site, self.opts.prior_scale),
+            &prior_sigma(self.opts.prior_scale),
+            self.arw,
+            self.vrw,
+            zupt_sigma_mps,
+        )
     }
 }
 

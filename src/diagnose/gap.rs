@@ -25,10 +25,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::error::DiagnoseError;
-use crate::calib::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
+use crate::calib::filter::{error_dynamics, process_noise, transition, NAV};
 use crate::calib::lsq::NodeSchedule;
 use crate::calib::normal::NormalEquations;
-use crate::calib::priors::{initial_navigation_covariance, prior_sigma, white_noise_density};
+use crate::calib::priors::{initial_navigation_covariance, white_noise_density};
 use crate::calib::walk::{walk, PassContext};
 use crate::calib::CalibError;
 use crate::model::{Compensator, Effects, ErrorParameters, N_PARAMS};
@@ -65,12 +65,9 @@ pub(crate) fn measured_nodes(
     c_b_n0: &Matrix3<f64>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Nodes, CalibError> {
-    let site = &ctx.run.site;
     let comp = params.compensator();
-    let prior = prior_sigma(ctx.opts.prior_scale);
-    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-    let p0 = initial_navigation_covariance(site, ctx.opts.prior_scale);
-    let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
+    // Used only to accumulate the parameter columns between nodes.
+    let mut sens = ctx.filter(1.0);
     let dt = 1.0 / ctx.run.sample_rate_hz;
     let rec_no = |t: f64| ((t - ctx.scan.t_begin) / dt).round() as u64;
     let window_s = ctx.window() as f64 * dt;

@@ -12,12 +12,15 @@
 //! 3. Fit every candidate effect's signature (simulated, one run per
 //!    parameter) jointly with the base parameters; score by BIC; name the
 //!    best when it beats "no effect" by a clear margin; say when two
-//!    candidates cannot be told apart; iterate until nothing significant
-//!    remains.
+//!    candidates cannot be told apart (and which turn would part them,
+//!    `separate`); iterate until nothing significant remains (`select`,
+//!    over the columns of `library`). The conclusion is a `Verdict`.
 //! 4. The final calibration is the joint least-squares fit of the base
 //!    parameters and the named effects, linearised at the base
 //!    calibration (effects at these sizes are linear; the scale-factor
-//!    asymmetry is linear in A).
+//!    asymmetry is linear in A). `assemble` turns the selection into the
+//!    `report`, with where each step's gap lives (`localise`) and what
+//!    the run could have seen (`detect`).
 //!
 //! No I/O: records come through `RecordSource`; `pipeline::diagnose_file`
 //! is the file-backed entry point.
