@@ -12,6 +12,7 @@ pub mod kf_pass;
 pub mod lsq;
 pub mod misfit;
 pub mod model_check;
+pub(crate) mod nodes;
 pub(crate) mod normal;
 pub mod options;
 pub mod plan;

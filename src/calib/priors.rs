@@ -2,7 +2,7 @@
 //! prior σ, the navigation errors' covariance at the start, and the white
 //! noise that drives the error model between observations.
 
-use nalgebra::Matrix6;
+use nalgebra::{Matrix3, Matrix6};
 
 use crate::model::params::{paper_magnitude, Group};
 use crate::model::PARAMETERS;
@@ -34,6 +34,15 @@ pub(crate) fn initial_navigation_covariance(site: &Site, prior_scale: f64) -> Ma
         p0[(i, i)] = s * s;
     }
     p0
+}
+
+/// Information (inverse covariance) of the start attitude error under
+/// `initial_navigation_covariance`; `None` if that were singular.
+pub(crate) fn start_attitude_information(site: &Site, prior_scale: f64) -> Option<Matrix3<f64>> {
+    initial_navigation_covariance(site, prior_scale)
+        .fixed_view::<3, 3>(0, 0)
+        .into_owned()
+        .try_inverse()
 }
 
 /// Spectral density of the white noise driving [φ; δv]: the gyro's angle
