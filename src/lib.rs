@@ -5,15 +5,15 @@
 //! `docs/ARCHITECTURE.md`): `nav` (Earth model, attitude algebra,
 //! strapdown), `model` (the 24-parameter error model and the extra effects),
 //! `sim` (schemes and record generation), `io` (run files, metadata, truth);
-//! and the server: `store` (SQLite), `jobs` (durable queue, workers), `api`
-//! (HTTP), `server` (configuration, application).
+//! and the server: `store` (SQLite), `runfiles` (the run files on disk),
+//! `jobs` (durable queue, workers), `api` (HTTP), `server` (configuration,
+//! application).
 
 pub mod api;
 pub mod calib;
 pub mod config;
 pub mod design;
 pub mod diagnose;
-pub mod disk;
 pub mod io;
 pub mod jobs;
 pub mod metrics;
@@ -21,6 +21,7 @@ pub mod model;
 pub mod nav;
 pub mod pipeline;
 pub mod record;
+pub mod runfiles;
 pub mod server;
 pub mod sim;
 pub mod store;

@@ -222,7 +222,7 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
         .await
         .unwrap()
         .unwrap();
-    assert_eq!(job.state, "queued");
+    assert_eq!(job.state, sinscal::store::JobState::Queued);
     assert_eq!(job.attempts, 0);
     assert_eq!(
         app.runner().try_run_next_job(0).await.unwrap(),

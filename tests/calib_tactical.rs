@@ -86,7 +86,7 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
 /// navigation-grade noise; σ came out up to 8× too large).
 #[test]
 fn measured_noise_is_the_simulated_noise_when_turns_start_between_blocks() {
-    use sinscal::calib::estimate::prescan;
+    use sinscal::calib::prescan::prescan;
     let site = Site::new(28.2215, 112.9924, 50.0);
     let run = RunInfo {
         site,

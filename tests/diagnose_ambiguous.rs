@@ -11,6 +11,7 @@ mod diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::diagnose::candidates::values_in;
+use sinscal::diagnose::Verdict;
 use sinscal::model::effects::BiasDrift;
 use sinscal::model::Effects;
 use sinscal::sim::scheme::{Axis, Rotate, Step};
@@ -58,7 +59,7 @@ fn ambiguous_then_parted(seed: u64) {
     let rep = run(&cfg);
     assert!(rep.named.is_empty(), "seed {seed}: {}", rep.verdict);
     assert!(
-        rep.verdict.starts_with("ambiguous:"),
+        matches!(rep.verdict, Verdict::Ambiguous { .. }),
         "seed {seed}: {}",
         rep.verdict
     );

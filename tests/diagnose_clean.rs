@@ -4,6 +4,7 @@
 mod diagnosis_support;
 
 use diagnosis_support::*;
+use sinscal::diagnose::Verdict;
 use sinscal::model::Effects;
 
 #[test]
@@ -15,7 +16,7 @@ fn clean_runs_name_nothing() {
         let cfg = config(nine_plus_nine(300.0), Effects::none(), seed);
         let rep = run(&cfg);
         assert!(rep.named.is_empty(), "seed {seed}: {}", rep.verdict);
-        assert_eq!(rep.verdict, "no significant effect", "seed {seed}");
+        assert_eq!(rep.verdict, Verdict::NoSignificantEffect, "seed {seed}");
         assert!(
             rep.gap_rms_before < 1.2 * rep.noise_floor_rms,
             "seed {seed}: gap {:.3e} vs floor {:.3e}",

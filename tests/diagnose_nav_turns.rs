@@ -6,6 +6,7 @@
 mod diagnosis_support;
 
 use diagnosis_support::*;
+use sinscal::diagnose::Verdict;
 use sinscal::model::Effects;
 use sinscal::sim::scheme::{Axis, Frame, Step};
 use sinscal::sim::SimConfig;
@@ -41,7 +42,7 @@ fn clean_run_on_nav_turns_names_nothing() {
     let cfg = off_heading(Effects::none(), 21);
     let rep = run(&cfg);
     assert_reconstructed_in_n(&rep, &cfg);
-    assert_eq!(rep.verdict, "no significant effect");
+    assert_eq!(rep.verdict, Verdict::NoSignificantEffect);
     assert!(rep.gap_rms_before < 1.2 * rep.noise_floor_rms);
 }
 

@@ -8,7 +8,7 @@ mod diagnosis_support;
 use diagnosis_support::*;
 use sinscal::diagnose::candidates::{add_effect, library};
 use sinscal::diagnose::detect::DetectionThreshold;
-use sinscal::diagnose::DiagnoseReport;
+use sinscal::diagnose::{DiagnoseReport, Verdict};
 use sinscal::model::Effects;
 
 fn close(a: f64, b: f64, what: &str) {
@@ -139,7 +139,7 @@ fn an_effect_at_twice_the_reported_threshold_is_named() {
     let seed = 121;
     let clean = config(nine_plus_nine(300.0), Effects::none(), seed);
     let rep = run(&clean);
-    assert_eq!(rep.verdict, "no significant effect");
+    assert_eq!(rep.verdict, Verdict::NoSignificantEffect);
     assert_sane(&rep);
     assert!(
         rep.summary()

@@ -75,9 +75,5 @@ fn an_effect_outside_the_library_is_unexplained() {
     .unwrap();
     eprintln!("{}", rep.summary());
     assert!(rep.z_before > 3.0, "the gap is significant");
-    assert!(
-        rep.verdict.contains("unexplained"),
-        "verdict: {}",
-        rep.verdict
-    );
+    assert!(rep.verdict.is_unexplained(), "verdict: {}", rep.verdict);
 }

@@ -9,16 +9,16 @@ use serde::Serialize;
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::{parse_id, rfc3339, AppState};
-use crate::store::{JobRow, Role};
+use crate::store::{JobKind, JobRow, JobState, Role};
 
 #[derive(Serialize)]
 pub struct JobView {
     pub id: String,
     pub run_id: String,
     /// calibrate or diagnose.
-    pub kind: String,
+    pub kind: JobKind,
     /// queued, running, succeeded, failed or cancelled.
-    pub state: String,
+    pub state: JobState,
     /// 0 … 100.
     pub progress_percent: f64,
     pub stage: Option<String>,
@@ -99,7 +99,7 @@ async fn cancel_job(
         .cancel_job(&id)
         .await?
         .ok_or_else(|| ApiError::NotFound(format!("no job {id}")))?;
-    if job.state == "succeeded" || job.state == "failed" {
+    if job.state.is_settled() {
         return Err(ApiError::Conflict(format!(
             "job {id} has already {}",
             job.state

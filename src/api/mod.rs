@@ -27,8 +27,8 @@ use tower_http::trace::TraceLayer;
 use self::auth::{roles, Auth};
 use self::error::{problem_response, ApiError, PROBLEM_JSON};
 use crate::config::Config;
-use crate::disk::available_bytes;
 use crate::metrics::Metrics;
+use crate::runfiles::RunFiles;
 use crate::store::Store;
 
 /// The OpenAPI document at the repository root: what the server serves is
@@ -220,16 +220,20 @@ async fn not_ready(st: &AppState) -> Option<String> {
     if st.stopping.load(Ordering::Relaxed) {
         return Some("shutting down".into());
     }
-    let dir = st.config.data_dir.clone();
+    let files = RunFiles::new(st.config.data_dir.clone());
     let floor = st.config.min_free_bytes;
     let disk = tokio::task::spawn_blocking(move || -> Result<(), String> {
-        let free = available_bytes(&dir).map_err(|e| format!("data folder: {e}"))?;
+        let free = files
+            .available_bytes()
+            .map_err(|e| format!("data folder: {e}"))?;
         if free < floor {
             return Err(format!(
                 "storage low: {free} bytes free in the data folder, below the floor of {floor}"
             ));
         }
-        write_probe_file(&dir).map_err(|e| format!("data folder not writable: {e}"))
+        files
+            .probe_write()
+            .map_err(|e| format!("data folder not writable: {e}"))
     })
     .await
     .unwrap_or_else(|e| Err(format!("probe task: {e}")));
@@ -243,19 +247,6 @@ async fn not_ready(st: &AppState) -> Option<String> {
         return Some(format!("database not writable: {e}"));
     }
     None
-}
-
-/// Writes, syncs and removes a small file where uploads are spooled.
-fn write_probe_file(data_dir: &std::path::Path) -> std::io::Result<()> {
-    use std::io::Write;
-    let path = data_dir.join("runs").join("tmp").join("ready-probe");
-    let result = (|| {
-        let mut f = std::fs::File::create(&path)?;
-        f.write_all(&[0u8; 4096])?;
-        f.sync_all()
-    })();
-    let _ = std::fs::remove_file(&path);
-    result
 }
 
 async fn metrics(State(st): State<AppState>, auth: Auth) -> Result<Response, ApiError> {

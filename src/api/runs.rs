@@ -17,7 +17,8 @@ use super::jobs::JobView;
 use super::upload::queue_full;
 use super::{parse_id, rfc3339, AppState};
 use crate::diagnose::DiagnoseReport;
-use crate::store::{DiagnoseQueued, JobRow, Review, RunRow};
+use crate::runfiles::RunFiles;
+use crate::store::{DiagnoseQueued, JobRow, Review, RunDeletion, RunRow};
 
 #[derive(Serialize)]
 pub struct RunView {
@@ -125,8 +126,7 @@ async fn get_result(
         .store
         .get_job(&run.job_id)
         .await?
-        .map(|j| j.state)
-        .unwrap_or_else(|| "unknown".into());
+        .map_or("unknown", |j| j.state.as_str());
     Err(ApiError::Conflict(format!(
         "run {id} has no result: its job {} is {state}",
         run.job_id
@@ -141,14 +141,15 @@ async fn delete_run(
     auth.require(roles::ADMIN)?;
     let id = parse_id(path?.0, "run")?;
     match st.store.delete_run(&id).await? {
-        Ok(Some(blob)) => {
+        RunDeletion::Deleted { blob_path } => {
             // The rows are gone first: a crash before this line leaves an
             // orphan file, which the startup sweep removes.
-            let _ = tokio::fs::remove_file(st.config.data_dir.join(blob)).await;
+            let files = RunFiles::new(st.config.data_dir.clone());
+            let _ = tokio::task::spawn_blocking(move || files.remove(&blob_path)).await;
             Ok(StatusCode::NO_CONTENT)
         }
-        Ok(None) => Err(ApiError::NotFound(format!("no run {id}"))),
-        Err(state) => Err(ApiError::Conflict(format!(
+        RunDeletion::NoRun => Err(ApiError::NotFound(format!("no run {id}"))),
+        RunDeletion::JobBusy(state) => Err(ApiError::Conflict(format!(
             "run {id}'s job is {state}: cancel it and wait for it to stop first"
         ))),
     }

@@ -31,7 +31,7 @@ pub struct NewTokenView {
 #[derive(Serialize)]
 pub struct TokenView {
     pub id: String,
-    pub role: String,
+    pub role: Role,
     pub label: Option<String>,
     pub created_at: String,
     pub revoked_at: Option<String>,

@@ -2,15 +2,13 @@
 //! and validated, acknowledged only once it is durable.
 //!
 //! The body never sits in memory: chunks go through a bounded channel to a
-//! blocking thread that writes them to `runs/tmp/<uuid>.part`, hashes them
-//! and feeds them to [`RecordReader`], which checks every record. On any
-//! refusal the temp file is removed. On success: fsync, rename to
-//! `runs/<ab>/<run uuid>.<ext>` (a path made only of the server's own
-//! UUID), fsync the directory, then the run and job rows in one
-//! transaction, then 202.
+//! blocking thread that writes them to a temp file of [`RunFiles`], hashes
+//! them and feeds them to [`RecordReader`], which checks every record. On
+//! any refusal the temp file is removed. On success the file is committed
+//! (made durable at its place, see `crate::runfiles`), then the run and job
+//! rows are written in one transaction, then 202.
 
 use std::io::{self, BufWriter, Read, Write};
-use std::path::{Path as FsPath, PathBuf};
 use std::sync::atomic::Ordering;
 
 use axum::body::Bytes;
@@ -28,10 +26,10 @@ use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
 use super::AppState;
-use crate::disk::available_bytes;
 use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
 use crate::metrics::UploadOutcome;
+use crate::runfiles::{Pending, RunFiles};
 use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunRow};
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.
@@ -65,23 +63,9 @@ pub struct UploadAnswer {
     pub job_url: String,
 }
 
-/// A temp file removed on drop unless it was persisted.
-struct TempFile {
-    path: PathBuf,
-    keep: bool,
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        if !self.keep {
-            let _ = std::fs::remove_file(&self.path);
-        }
-    }
-}
-
 /// A body received, hashed and (when the metadata came first) validated.
 struct Ingested {
-    temp: TempFile,
+    file: Pending,
     sha256: String,
     size: u64,
     /// Records and gzip-ness, once validated.
@@ -188,10 +172,10 @@ fn sink(
         None => None,
     };
     // Anything the reader did not consume (nothing for a valid file, whose
-    // reader reads to the end) is still part of the stored bytes.
+    // reader reads to the end) is still part of the stored bytes. (The
+    // fsync is the commit's, see `RunFiles`.)
     while tee.next_chunk()? {}
-    let file = tee.file.into_inner().map_err(|e| e.into_error())?;
-    file.sync_all()?;
+    tee.file.into_inner().map_err(|e| e.into_error())?;
     Ok((hex::encode(tee.hasher.finalize()), tee.written, checked))
 }
 
@@ -228,12 +212,7 @@ async fn ingest<S>(
 where
     S: Stream<Item = Result<Bytes, ApiError>> + Unpin,
 {
-    let tmp_dir = st.config.data_dir.join("runs").join("tmp");
-    let temp = TempFile {
-        path: tmp_dir.join(format!("{}.part", uuid::Uuid::new_v4())),
-        keep: false,
-    };
-    let file = std::fs::File::create(&temp.path)?;
+    let (pending, file) = RunFiles::new(st.config.data_dir.clone()).create_temp()?;
     let (tx, rx) = tokio::sync::mpsc::channel::<Bytes>(16);
     let check = meta.map(|m| (m.format, m.sample_rate_hz, read_limits(st)));
     let max_cpu = st.config.upload_max_cpu;
@@ -275,7 +254,7 @@ where
     }
     let (sha256, size, checked) = sunk?;
     Ok(Ingested {
-        temp,
+        file: pending,
         sha256,
         size,
         checked,
@@ -363,7 +342,7 @@ fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<Response
 /// Refuses an upload while the data folder's filesystem is below its
 /// free-space floor, before a byte of the body is read.
 fn check_free_space(st: &AppState) -> Result<(), ApiError> {
-    match available_bytes(&st.config.data_dir) {
+    match RunFiles::new(st.config.data_dir.clone()).available_bytes() {
         Ok(free) if free < st.config.min_free_bytes => {
             tracing::warn!(
                 free,
@@ -382,11 +361,6 @@ pub fn queue_full() -> ApiError {
         detail: "the calibration queue is full; retry later".into(),
         retry_after_s: 30,
     }
-}
-
-/// fsyncs a directory so that a rename into it survives power loss.
-fn sync_dir(dir: &FsPath) -> io::Result<()> {
-    std::fs::File::open(dir)?.sync_all()
 }
 
 pub async fn upload(
@@ -516,7 +490,7 @@ async fn receive_multipart(
         // The data came before the metadata: it was spooled unchecked and
         // is validated from the temp file now.
         let (path, format, rate, limits, max_cpu) = (
-            data.temp.path.clone(),
+            data.file.path().to_path_buf(),
             meta.format,
             meta.sample_rate_hz,
             read_limits(st),
@@ -542,7 +516,7 @@ async fn store_run(
     auth: &Auth,
     serial: &str,
     meta: RunMetadata,
-    mut data: Ingested,
+    data: Ingested,
 ) -> Result<Response, ApiError> {
     let (records, gzip) = data.checked.unwrap_or((0, false));
     let span_s = records.saturating_sub(1) as f64 / meta.sample_rate_hz;
@@ -566,22 +540,11 @@ async fn store_run(
         (DataFormat::Csv, true) => "csv.gz",
         (DataFormat::F64le, _) => "bin",
     };
-    let blob_path = format!("runs/{}/{run_id}.{ext}", &run_id[..2]);
-    let final_path = st.config.data_dir.join(&blob_path);
-    {
-        let (from, to) = (data.temp.path.clone(), final_path.clone());
-        tokio::task::spawn_blocking(move || -> io::Result<()> {
-            let dir = to.parent().expect("blob path has a parent");
-            std::fs::create_dir_all(dir)?;
-            std::fs::rename(&from, &to)?;
-            sync_dir(dir)?;
-            // The shard directory may be new: make its entry durable too.
-            sync_dir(dir.parent().expect("shard has a parent"))
-        })
-        .await
-        .map_err(|e| ApiError::Internal(format!("persist task: {e}")))??;
-        data.temp.path = final_path.clone();
-    }
+    let blob_path = RunFiles::blob_path(&run_id, ext);
+    // Until the rows commit, the file is `stored`'s, removed on any early
+    // return; the startup sweep covers a crash.
+    let files = RunFiles::new(st.config.data_dir.clone());
+    let stored = data.file.commit_off_runtime(files, &blob_path).await?;
     let recorded_at = meta
         .recorded_at
         .as_deref()
@@ -603,15 +566,13 @@ async fn store_run(
         max_attempts: st.config.max_attempts,
         uploaded_by: Some(auth.token_id.clone()),
     };
-    // Until the rows commit, `data.temp` still owns the blob and removes it
-    // on any early return; the startup sweep covers a crash here.
     match st
         .store
         .insert_run_and_job(&new, st.config.max_queue)
         .await?
     {
         InsertOutcome::Created => {
-            data.temp.keep = true;
+            stored.keep();
             st.wake.notify_one();
             st.metrics.upload(UploadOutcome::Accepted);
             tracing::info!(run = %run_id, job = %job_id, unit = serial, bytes = data.size, "run stored");

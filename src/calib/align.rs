@@ -5,8 +5,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use super::error::CalibError;
 use super::filter::{error_dynamics, SystematicFilter};
-use super::CalibError;
 use crate::nav::{Site, Strapdown};
 use crate::record::Record;
 

@@ -1,551 +1,41 @@
-//! The calibration driver: a pre-scan that finds the dwells and the noise,
-//! then passes of alignment and the systematic filter, each pass
-//! compensating the data with the estimate of the one before
-//! (FIELD-NOTES 2, 4), until the correction is small against its σ.
+//! The calibration driver: passes of alignment and an estimator over the
+//! scanned run, each pass compensating the data with the estimate of the
+//! one before (the SPEC §2 compensation, docs/CONTRACT.md), until the
+//! correction is small against its σ; then the cross-check with the other
+//! estimator, and the result. Passes, because a single open-loop pass
+//! fails at the paper's error sizes (CONTRACT §8.2); each correction is
+//! composed into the compensation, not added (§8.4).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
-use serde::{Deserialize, Serialize};
-
-use super::align;
-use super::filter::{error_dynamics, Innovation, SystematicFilter};
+use super::error::CalibError;
+use super::kf_pass::{kf_pass, Pass};
 use super::lsq::lsq_pass;
-use super::model_check::{CheckAccumulator, ModelCheck};
+use super::options::EstimateOptions;
+use super::prescan::{first_dwell, scan_run};
+use super::priors::prior_sigma;
 use super::result::{
-    AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, DwellResidual,
-    ParameterEstimate,
+    AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, ParameterEstimate,
 };
-use super::segment::{DetectOptions, RunSegment, SegmentKind, Segmenter, StartActivity};
-use super::sensitivity::base_columns;
-use super::{CalibError, EstimatorKind, Progress, RecordSource, RunInfo};
-use crate::model::params::paper_magnitude;
+use super::run::{EstimatorKind, Progress, RecordSource, RunInfo};
+use super::walk::PassContext;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{Compensator, ErrorParameters, N_PARAMS, PARAMETERS};
+use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 use crate::nav::attitude::euler_from_dcm;
-use crate::nav::Strapdown;
 
-/// Sensor noise densities used as process noise.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct NoiseDensity {
-    pub gyro_arw_deg_rt_h: f64,
-    pub accel_vrw_ug_rt_hz: f64,
-}
+/// A parameter is reported poorly observable when its σ after the run is
+/// above this fraction of its prior: the run has not halved the prior's
+/// uncertainty, so much of the estimate is the prior's.
+const POORLY_OBSERVABLE: f64 = 0.5;
 
-/// Tunable parts of the estimator. The defaults are what the accuracy
-/// tests and benchmarks use.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct EstimateOptions {
-    pub estimator: EstimatorKind,
-    /// Passes with feedback into the compensation, at most. A unit near
-    /// the paper's errors converges in two or three; an uncalibrated one
-    /// (20× those errors: 1 % scale factors, a degree of attitude error per
-    /// turn) is far off linear at first, each pass removing only 75–90 %
-    /// of the error until the fourth, and converges in six.
-    pub max_passes: u32,
-    /// Stop once every parameter's correction is below this many σ.
-    pub converged_sigma: f64,
-    /// Propagation window and zero-velocity update interval, s.
-    pub window_s: f64,
-    /// σ of a zero-velocity observation, m/s: what the unit may really
-    /// move at rest (table vibration), not a tuning knob for the noise.
-    pub zupt_sigma_mps: f64,
-    /// Also observe zero velocity while the unit turns. Right only when the
-    /// turntable's axes pass through the unit's reference point (as in
-    /// simulation); off by default, so off-centre tables and manual flips
-    /// are safe. With it the filter gains the rotations' accelerometer
-    /// information.
-    pub zupt_in_motion: bool,
-    pub detect: DetectOptions,
-    /// Noise densities; `None` measures them from the dwells' increments.
-    pub noise: Option<NoiseDensity>,
-    /// Prior 1-σ of each parameter family as a multiple of the seed
-    /// paper's magnitude.
-    pub prior_scale: f64,
-    /// Run the least-squares cross-check after the filter.
-    pub cross_check: bool,
-    /// Most points in the convergence history. 500 over a 3 h run is a
-    /// point every 23 s, finer than any dwell, and wider than a plot.
-    pub history_points: usize,
-}
+/// Fewer dwells than this are warned about: the seed paper's scheme, for
+/// which the 24-parameter model was set up, has ten positions.
+const MULTI_POSITION_DWELLS: usize = 10;
 
-impl Default for EstimateOptions {
-    fn default() -> Self {
-        EstimateOptions {
-            estimator: EstimatorKind::Kf,
-            max_passes: 10,
-            converged_sigma: 0.05,
-            window_s: 1.0,
-            zupt_sigma_mps: 1e-6,
-            zupt_in_motion: false,
-            detect: DetectOptions::default(),
-            noise: None,
-            prior_scale: 4.0,
-            cross_check: true,
-            history_points: 500,
-        }
-    }
-}
-
-/// What the pre-scan learns about a run.
-#[derive(Clone, Debug)]
-pub struct Prescan {
-    pub segments: Vec<RunSegment>,
-    pub n_records: u64,
-    /// Start of the first record's interval.
-    pub t_begin: f64,
-    pub t_end: f64,
-    /// Measured noise, rad/√s and m/s/√s.
-    pub arw: f64,
-    pub vrw: f64,
-    /// The run's first seconds, summarised.
-    pub start: StartActivity,
-}
-
-impl Prescan {
-    pub fn dwells(&self) -> impl Iterator<Item = &RunSegment> {
-        self.segments
-            .iter()
-            .filter(|s| s.kind == SegmentKind::Dwell)
-    }
-}
-
-/// Lowest noise densities used, so that a noise-free run still gives a
-/// well-posed filter: 1e-5 deg/√h and 0.1 µg/√Hz (thirty and fifty times
-/// below the quietest navigation-grade units).
-const MIN_ARW: f64 = 1e-5 * DEG_PER_RT_H;
-const MIN_VRW: f64 = 0.1 * UG_PER_RT_HZ;
-
-/// One streaming read: the segmentation, and the noise from the still
-/// blocks the segmentation found (one still decision for both).
-pub fn prescan(
-    source: &dyn RecordSource,
-    run: &RunInfo,
-    detect: &DetectOptions,
-    cancel: &AtomicBool,
-) -> Result<Prescan, CalibError> {
-    let dt = 1.0 / run.sample_rate_hz;
-    let mut seg = Segmenter::new(*detect, run.sample_rate_hz, run.site.gravity());
-    let (mut n, mut t_begin, mut t_end) = (0u64, f64::NAN, f64::NAN);
-    for r in source.records()? {
-        let r = r?;
-        if n == 0 {
-            t_begin = r.t - dt;
-        }
-        t_end = r.t;
-        n += 1;
-        if n % 65_536 == 0 && cancel.load(Ordering::Relaxed) {
-            return Err(CalibError::Cancelled);
-        }
-        seg.push(&r);
-    }
-    if n == 0 {
-        return Err(CalibError::Unusable("the run holds no records".into()));
-    }
-    let found = seg.finish();
-    Ok(Prescan {
-        segments: found.segments,
-        n_records: n,
-        t_begin,
-        t_end,
-        arw: found.noise.arw,
-        vrw: found.noise.vrw,
-        start: found.start,
-    })
-}
-
-/// Sums over one dwell's zero-velocity innovations, from which the
-/// post-fit residual ȳ − M p̂ follows for the final estimate p̂ without
-/// storing the innovations: Σ(y_i − m_i·p)² = Σy_i² − 2 p·Σy_i m_i + pᵀ(Σ m_i m_iᵀ)p.
-struct DwellAccumulator {
-    n: usize,
-    sum_y: Vector3<f64>,
-    sum_y2: Vector3<f64>,
-    sum_m: DMatrix<f64>,
-    sum_ym: DMatrix<f64>,
-    sum_mm: [DMatrix<f64>; 3],
-}
-
-impl DwellAccumulator {
-    fn new(n_p: usize) -> Self {
-        DwellAccumulator {
-            n: 0,
-            sum_y: Vector3::zeros(),
-            sum_y2: Vector3::zeros(),
-            sum_m: DMatrix::zeros(3, n_p),
-            sum_ym: DMatrix::zeros(3, n_p),
-            sum_mm: std::array::from_fn(|_| DMatrix::zeros(n_p, n_p)),
-        }
-    }
-
-    fn add(&mut self, innov: &Innovation) {
-        let y = innov.y_bar;
-        self.n += 1;
-        self.sum_y += y;
-        self.sum_y2 += y.component_mul(&y);
-        self.sum_m += &innov.m;
-        for i in 0..3 {
-            let col = innov.m.row(i).transpose();
-            for k in 0..col.len() {
-                self.sum_ym[(i, k)] += y[i] * col[k];
-            }
-            self.sum_mm[i].ger(1.0, &col, &col, 1.0);
-        }
-    }
-
-    /// RMS and mean of the post-fit innovations per axis.
-    fn post_fit(&self, p: &DVector<f64>) -> (Vector3<f64>, Vector3<f64>) {
-        let n = self.n.max(1) as f64;
-        let mp = &self.sum_m * p;
-        let mut rms = Vector3::zeros();
-        let mut mean = Vector3::zeros();
-        for i in 0..3 {
-            let cross = self.sum_ym.row(i).dot(&p.transpose());
-            let quad = (p.transpose() * &self.sum_mm[i] * p)[(0, 0)];
-            rms[i] = ((self.sum_y2[i] - 2.0 * cross + quad) / n).max(0.0).sqrt();
-            mean[i] = (self.sum_y[i] - mp[i]) / n;
-        }
-        (rms, mean)
-    }
-}
-
-/// The result of one filter pass.
-struct Pass {
-    /// Residual parameter estimate, SI.
-    delta: Vec<f64>,
-    sigma: Vec<f64>,
-    c_b_n0: Matrix3<f64>,
-    history: Convergence,
-    dwell_residuals: Vec<DwellResidual>,
-    /// Whether the model explains the pass's zero-velocity residuals.
-    model_check: Option<ModelCheck>,
-}
-
-/// Prior 1-σ of the 24 parameters, SI.
-pub fn prior_sigma(scale: f64) -> Vec<f64> {
-    PARAMETERS
-        .iter()
-        .map(|p| scale * paper_magnitude(p.group))
-        .collect()
-}
-
-/// Index of the dwell holding time t, if any.
-pub(crate) fn dwell_at(segments: &[RunSegment], t: f64) -> Option<usize> {
-    let i = segments.partition_point(|s| s.t_end < t);
-    segments
-        .get(i)
-        .filter(|s| s.kind == SegmentKind::Dwell && s.t_start <= t && t <= s.t_end)
-        .map(|_| i)
-}
-
-/// What every pass over a run shares.
-pub(crate) struct PassContext<'a> {
-    pub source: &'a dyn RecordSource,
-    pub run: &'a RunInfo,
-    pub opts: &'a EstimateOptions,
-    pub scan: &'a Prescan,
-    /// Noise densities in use, rad/√s and m/s/√s.
-    pub arw: f64,
-    pub vrw: f64,
-    pub cancel: &'a AtomicBool,
-}
-
-impl PassContext<'_> {
-    /// Records per window.
-    pub fn window(&self) -> usize {
-        ((self.opts.window_s * self.run.sample_rate_hz).round() as usize).max(1)
-    }
-}
-
-pub(crate) fn first_dwell(scan: &Prescan) -> Result<&RunSegment, CalibError> {
-    let first = scan
-        .segments
-        .first()
-        .ok_or_else(|| CalibError::Unusable("no segments".into()))?;
-    if first.kind == SegmentKind::Dwell {
-        return Ok(first);
-    }
-    let s = &scan.start;
-    let later = match scan.dwells().next() {
-        Some(d) => format!(
-            "the first still stretch long enough to align on runs from t = {:.2} s to {:.2} s",
-            d.t_start, d.t_end
-        ),
-        None => "no still stretch long enough to align on was found anywhere".into(),
-    };
-    Err(CalibError::Unusable(format!(
-        "the run must begin at rest: over its first {:.1} s ({:.2} s blocks) the angular rate \
-         is {:.3} deg/s (spread {:.3}) and |f| is {:.4} m/s² (spread {:.4}); {later}",
-        s.span_s,
-        s.block_s,
-        s.rate_mean_dps,
-        s.rate_spread_dps,
-        s.force_mean_mps2,
-        s.force_spread_mps2,
-    )))
-}
-
-/// The attitude at the run's start: coarse alignment from the first
-/// dwell's compensated means, then fine alignment over that dwell.
-pub(crate) fn align_start(
-    ctx: &PassContext,
-    comp: &Compensator,
-) -> Result<Matrix3<f64>, CalibError> {
-    let dt = 1.0 / ctx.run.sample_rate_hz;
-    let dwell1 = first_dwell(ctx.scan)?;
-    let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
-    let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
-    let c_coarse = align::coarse(&f_b, &w_b)?;
-    let t_align_end = dwell1.t_end;
-    let align_records = ctx
-        .source
-        .records()?
-        .map_while(|r| r.ok())
-        .take_while(|r| r.t <= t_align_end + 1e-9)
-        .map(|r| comp.record(&r, dt));
-    align::fine(
-        &ctx.run.site,
-        &c_coarse,
-        align_records,
-        &align::FineAlignment {
-            t0: ctx.scan.t_begin,
-            dt,
-            window: ctx.window(),
-            arw: ctx.arw,
-            vrw: ctx.vrw,
-        },
-    )
-}
-
-/// What a window's end offers the estimator that walks the run.
-pub(crate) struct WindowEnd<'a> {
-    pub t_start: f64,
-    pub t_end: f64,
-    /// 0-based window number.
-    pub index: usize,
-    pub nav: &'a mut Strapdown,
-    /// Set when the callback corrected the navigation.
-    pub corrected: bool,
-}
-
-/// Walks the run once: compensates each record with `comp`, navigates it
-/// from `c_b_n0`, feeds the parameter columns of each record to
-/// `sens`, propagates `sens` at each window's end and hands the window to
-/// `on_window` (which may update and correct).
-pub(crate) fn walk(
-    ctx: &PassContext,
-    comp: &Compensator,
-    c_b_n0: &Matrix3<f64>,
-    sens: &mut SystematicFilter,
-    progress: &mut dyn FnMut(f64),
-    mut on_window: impl FnMut(&mut SystematicFilter, &mut WindowEnd) -> Result<(), CalibError>,
-) -> Result<(), CalibError> {
-    let dt = 1.0 / ctx.run.sample_rate_hz;
-    let window = ctx.window();
-    let mut nav = Strapdown::new(&ctx.run.site, c_b_n0, ctx.scan.t_begin, dt);
-    let mut c_prev = nav.c_b_n();
-    let (mut in_window, mut index, mut count) = (0usize, 0usize, 0u64);
-    let mut t_ws = ctx.scan.t_begin;
-    for r in ctx.source.records()? {
-        let r = comp.record(&r?, dt);
-        nav.update(&r);
-        let c_now = nav.c_b_n();
-        // The attitude at mid-record, to first order in the record's turn.
-        let c_mid = (c_prev + c_now) * 0.5;
-        c_prev = c_now;
-        let tau = r.t - 0.5 * dt - t_ws;
-        base_columns(
-            &c_mid,
-            &Vector3::from(r.dtheta),
-            &Vector3::from(r.dv),
-            dt,
-            |i, rows, col| sens.add_column(i, rows, &col, tau),
-        );
-        in_window += 1;
-        count += 1;
-        if in_window == window || count == ctx.scan.n_records {
-            sens.propagate(r.t - t_ws);
-            let mut end = WindowEnd {
-                t_start: t_ws,
-                t_end: r.t,
-                index,
-                nav: &mut nav,
-                corrected: false,
-            };
-            on_window(sens, &mut end)?;
-            if end.corrected {
-                c_prev = nav.c_b_n();
-            }
-            index += 1;
-            in_window = 0;
-            t_ws = r.t;
-            if index % 64 == 0 {
-                if ctx.cancel.load(Ordering::Relaxed) {
-                    return Err(CalibError::Cancelled);
-                }
-                progress(count as f64 / ctx.scan.n_records as f64);
-            }
-        }
-    }
-    Ok(())
-}
-
-/// One pass of alignment and the filter over the records compensated with
-/// `params`.
-fn kf_pass(
-    ctx: &PassContext,
-    params: &ErrorParameters,
-    progress: &mut dyn FnMut(f64),
-) -> Result<Pass, CalibError> {
-    let site = &ctx.run.site;
-    let comp = params.compensator();
-    let c_b_n0 = align_start(ctx, &comp)?;
-
-    let prior = prior_sigma(ctx.opts.prior_scale);
-    let mut kf = SystematicFilter::new(
-        error_dynamics(&site.omega_ie_n(), &site.f_rest_n()),
-        &initial_navigation_covariance(ctx),
-        &prior,
-        ctx.arw,
-        ctx.vrw,
-        ctx.opts.zupt_sigma_mps,
-    );
-
-    let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
-    // One slot kept for the last window, so the history never exceeds
-    // `history_points`.
-    let every = n_windows
-        .div_ceil(ctx.opts.history_points.saturating_sub(1).max(1))
-        .max(1);
-    let mut history = Convergence {
-        names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
-        ..Default::default()
-    };
-    let mut dwell_acc: Vec<DwellAccumulator> = (0..ctx.scan.segments.len())
-        .map(|_| DwellAccumulator::new(N_PARAMS))
-        .collect();
-    let mut check = CheckAccumulator::new(&ctx.scan.segments, N_PARAMS);
-
-    walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
-        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
-        let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
-        if dwell.is_some() || ctx.opts.zupt_in_motion {
-            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
-            if let Some(d) = dwell {
-                dwell_acc[d].add(&innov);
-                check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
-            }
-            let (phi, dv) = kf.take_navigation_errors();
-            w.nav.correct(&phi, &dv, &Vector3::zeros());
-            w.corrected = true;
-        }
-        if w.index % every == 0 || w.index + 1 == n_windows {
-            let (d, s) = kf.parameters()?;
-            history.t.push(w.t_end);
-            history.value.push(
-                (0..N_PARAMS)
-                    .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
-                    .collect(),
-            );
-            history.sigma.push(
-                (0..N_PARAMS)
-                    .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
-                    .collect(),
-            );
-        }
-        Ok(())
-    })?;
-
-    let (delta, sigma) = kf.parameters()?;
-    if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {
-        return Err(CalibError::Numerical("the filter diverged".into()));
-    }
-    let p_hat = kf.scaled_estimate()?;
-    let mut dwell_residuals = Vec::new();
-    for (i, seg) in ctx.scan.segments.iter().enumerate() {
-        if seg.kind == SegmentKind::Dwell {
-            let (rms, mean) = dwell_acc[i].post_fit(&p_hat);
-            dwell_residuals.push(DwellResidual {
-                dwell: dwell_residuals.len() + 1,
-                t_start: seg.t_start,
-                t_end: seg.t_end,
-                rms_mps: rms.into(),
-                drift_mps2: (mean / ctx.opts.window_s).into(),
-            });
-        }
-    }
-    let model_check = Some(check.finish(&p_hat, &dwell_residuals));
-    Ok(Pass {
-        delta,
-        sigma,
-        c_b_n0,
-        history,
-        dwell_residuals,
-        model_check,
-    })
-}
-
-/// Covariance of the navigation errors at the run's start. The attitude
-/// left after alignment is what the residual biases imply (tilt ≈ δb_a/g,
-/// heading ≈ δb_g,E/ω_ie,N); the bounds are three priors wide, so the
-/// prior adds no information the run must supply. The unit starts at rest.
-pub(crate) fn initial_navigation_covariance(ctx: &PassContext) -> Matrix6<f64> {
-    let site = &ctx.run.site;
-    let prior = prior_sigma(ctx.opts.prior_scale);
-    let tilt = 3.0 * prior[9] / site.gravity();
-    let heading = (3.0 * prior[0] / site.omega_ie_n().y).min(0.1);
-    let mut p0 = Matrix6::zeros();
-    for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
-        p0[(i, i)] = s * s;
-    }
-    p0
-}
-
-impl<'a> PassContext<'a> {
-    /// The passes' context over a scanned run: the noise densities from
-    /// the options, else as the dwells measured them, floored.
-    pub fn new(
-        source: &'a dyn RecordSource,
-        run: &'a RunInfo,
-        opts: &'a EstimateOptions,
-        scan: &'a Prescan,
-        cancel: &'a AtomicBool,
-    ) -> Self {
-        let (arw, vrw) = match opts.noise {
-            Some(n) => (
-                n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
-                n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
-            ),
-            None => (scan.arw, scan.vrw),
-        };
-        PassContext {
-            source,
-            run,
-            opts,
-            scan,
-            arw: arw.max(MIN_ARW),
-            vrw: vrw.max(MIN_VRW),
-            cancel,
-        }
-    }
-}
-
-/// The scan every calibration starts from, after checking the rate.
-pub(crate) fn scan_run(
-    source: &dyn RecordSource,
-    run: &RunInfo,
-    opts: &EstimateOptions,
-    cancel: &AtomicBool,
-) -> Result<Prescan, CalibError> {
-    if !(run.sample_rate_hz.is_finite() && run.sample_rate_hz > 0.0) {
-        return Err(CalibError::Unusable(format!(
-            "sample rate {} Hz",
-            run.sample_rate_hz
-        )));
-    }
-    prescan(source, run, &opts.detect, cancel)
-}
+/// The two estimators disagree on a parameter when they differ by more
+/// than this many combined σ (a 3σ difference happens by chance about
+/// once in 370 parameters).
+const CROSS_CHECK_SIGMA: f64 = 3.0;
 
 /// Calibrates a run: the one entry point the CLI and the server call.
 pub fn estimate(
@@ -684,7 +174,7 @@ pub(crate) fn estimate_scanned(
     let mut parameters = std::collections::BTreeMap::new();
     for (i, info) in PARAMETERS.iter().enumerate() {
         let sigma = last.sigma[i];
-        if sigma > 0.5 * prior[i] {
+        if sigma > POORLY_OBSERVABLE * prior[i] {
             warnings.push(format!(
                 "{} is poorly observable on this run's scheme: its σ is {:.0}% of the prior",
                 info.name,
@@ -708,7 +198,7 @@ pub(crate) fn estimate_scanned(
         }
     }
     let n_dwells = scan.dwells().count();
-    if n_dwells < 10 {
+    if n_dwells < MULTI_POSITION_DWELLS {
         warnings.push(format!(
             "only {n_dwells} dwells found; the base model needs a multi-position scheme"
         ));
@@ -773,7 +263,7 @@ fn cross_check_report(
     for (i, info) in PARAMETERS.iter().enumerate() {
         let combined = (kf_sigma[i].powi(2) + lsq_sigma[i].powi(2)).sqrt();
         let nd = (kf.si[i] - lsq.si[i]).abs() / combined;
-        let flag = nd > 3.0;
+        let flag = nd > CROSS_CHECK_SIGMA;
         if flag {
             flagged.push(info.name.to_string());
         }

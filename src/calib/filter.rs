@@ -31,8 +31,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
+use super::error::CalibError;
 use super::sensitivity::Rows;
-use super::CalibError;
 use crate::nav::attitude::skew;
 
 /// Number of navigation-error states: φ (0..3), δv (3..6).

@@ -24,60 +24,15 @@
 //! recursion, the feedback or the update schedule, so a disagreement
 //! points at the filter's mechanics.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use super::estimate::{
-    align_start, dwell_at, initial_navigation_covariance, prior_sigma, walk, PassContext,
-};
-use super::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
-use super::segment::RunSegment;
-use super::CalibError;
+use super::error::CalibError;
+use super::filter::{error_dynamics, NAV};
+use super::nodes::{walk_nodes, Stretch};
+use super::normal::NormalEquations;
+use super::priors::{prior_sigma, start_attitude_information, white_noise_density};
+use super::walk::{align_start, PassContext};
 use crate::model::{ErrorParameters, N_PARAMS};
-
-/// Stretches each dwell is cut into.
-pub(crate) const STRETCHES_PER_DWELL: usize = 4;
-
-/// Where the nodes fall: at the first and last window wholly inside each
-/// dwell and at `STRETCHES_PER_DWELL` − 1 evenly spaced windows between.
-pub(crate) struct NodeSchedule {
-    window_s: f64,
-    /// The dwell being crossed and how many of its windows were seen.
-    inside: Option<(usize, usize)>,
-}
-
-impl NodeSchedule {
-    pub(crate) fn new(window_s: f64) -> Self {
-        NodeSchedule {
-            window_s,
-            inside: None,
-        }
-    }
-
-    /// Called at every window's end, in order: the dwell index when this
-    /// window's end is a node.
-    pub(crate) fn node_at(
-        &mut self,
-        segments: &[RunSegment],
-        t_start: f64,
-        t_end: f64,
-    ) -> Option<usize> {
-        let d0 = dwell_at(segments, t_start);
-        let Some(d) = d0.filter(|_| d0 == dwell_at(segments, t_end)) else {
-            self.inside = None;
-            return None;
-        };
-        let count = match self.inside {
-            Some((dd, c)) if dd == d => c + 1,
-            _ => 0,
-        };
-        self.inside = Some((d, count));
-        let seg = &segments[d];
-        let capacity = ((seg.t_end - seg.t_start) / self.window_s).floor().max(1.0) as usize;
-        let stride = capacity.div_ceil(STRETCHES_PER_DWELL).max(1);
-        let last = t_end + self.window_s > seg.t_end;
-        (count == 0 || count % stride == 0 || last).then_some(d)
-    }
-}
 
 /// A node: the open-loop velocity there and what led to it.
 struct Node {
@@ -106,10 +61,6 @@ pub(super) fn lsq_pass(
     let c_b_n0 = align_start(ctx, &comp)?;
     let prior = prior_sigma(ctx.opts.prior_scale);
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-    let p0 = initial_navigation_covariance(ctx);
-    // Used only to accumulate the parameter columns between nodes.
-    let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
-
     let window_s = ctx.window() as f64 / ctx.run.sample_rate_hz;
     let mut nodes: Vec<Node> = vec![Node {
         v: Vector3::zeros(),
@@ -117,28 +68,23 @@ pub(super) fn lsq_pass(
         t: 0.0,
     }];
     let mut since_node = 0.0;
-    let mut schedule = NodeSchedule::new(window_s);
-    walk(ctx, &comp, &c_b_n0, &mut sens, progress, |sens, w| {
+    walk_nodes(ctx, &comp, &c_b_n0, window_s, progress, |w, node| {
         since_node += w.t_end - w.t_start;
-        if schedule
-            .node_at(&ctx.scan.segments, w.t_start, w.t_end)
-            .is_some()
-        {
+        if let Some((_, b)) = node {
             nodes.push(Node {
                 v: w.nav.v_n,
-                b: sens.take_sensitivity(),
+                b,
                 t: since_node,
             });
             since_node = 0.0;
         }
-        Ok(())
     })?;
     if nodes.len() < 3 {
         return Err(CalibError::Unusable(
             "too few dwells for the least-squares cross-check".into(),
         ));
     }
-    solve(ctx, &f, &p0, &prior, &nodes).map(|(delta, sigma)| LsqSolution {
+    solve(ctx, &f, &prior, &nodes).map(|(delta, sigma)| LsqSolution {
         delta,
         sigma,
         c_b_n0,
@@ -149,84 +95,40 @@ pub(super) fn lsq_pass(
 fn solve(
     ctx: &PassContext,
     f: &nalgebra::Matrix6<f64>,
-    p0: &nalgebra::Matrix6<f64>,
     prior: &[f64],
     nodes: &[Node],
 ) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
     let n_p = N_PARAMS;
     let k_nodes = nodes.len();
-    let n = n_p + 3 * k_nodes;
     let phi = |k: usize| n_p + 3 * k;
-    let mut normal = DMatrix::<f64>::zeros(n, n);
-    let mut rhs = DVector::<f64>::zeros(n);
+    let mut normal = NormalEquations::new(n_p + 3 * k_nodes);
     // Priors: scaled parameters have unit variance; φ at the start as the
     // filter's.
-    for i in 0..n_p {
-        normal[(i, i)] += 1.0;
-    }
-    let p0_phi_inv = p0
-        .fixed_view::<3, 3>(0, 0)
-        .into_owned()
-        .try_inverse()
+    normal.add_diagonal(0..n_p, 1.0);
+    let p0_phi_inv = start_attitude_information(&ctx.run.site, ctx.opts.prior_scale)
         .ok_or_else(|| CalibError::Numerical("singular attitude prior".into()))?;
-    for i in 0..3 {
-        for j in 0..3 {
-            normal[(phi(0) + i, phi(0) + j)] += p0_phi_inv[(i, j)];
-        }
-    }
+    normal.add_block3(phi(0), &p0_phi_inv);
 
-    let mut qc = nalgebra::Matrix6::zeros();
-    for i in 0..3 {
-        qc[(i, i)] = ctx.arw * ctx.arw;
-        qc[(3 + i, 3 + i)] = ctx.vrw * ctx.vrw;
-    }
+    let qc = white_noise_density(ctx.arw, ctx.vrw);
     for k in 0..k_nodes - 1 {
         let next = &nodes[k + 1];
-        let a = transition(f, next.t);
-        let q = process_noise(f, &qc, next.t);
-        let w = q
-            .try_inverse()
+        let stretch = Stretch::new(f, &qc, next.t, &nodes[k].v, &next.v)
             .ok_or_else(|| CalibError::Numerical("singular process noise".into()))?;
-        let w = DMatrix::from_column_slice(6, 6, w.as_slice());
         // r = L u + d over the unknowns (p, φ_k, φ_{k+1}).
         let mut l = DMatrix::<f64>::zeros(6, n_p + 6);
         l.view_mut((0, 0), (6, n_p)).copy_from(&(-&next.b));
-        for i in 0..6 {
-            for j in 0..3 {
-                l[(i, n_p + j)] = -a[(i, j)];
-            }
-        }
-        for j in 0..3 {
-            l[(j, n_p + 3 + j)] = 1.0;
-        }
-        let v_k = nodes[k].v;
-        let a_xv = a.fixed_view::<6, 3>(0, 3) * v_k;
-        let mut d = DVector::<f64>::zeros(6);
-        for i in 0..3 {
-            d[i] = -a_xv[i];
-            d[3 + i] = next.v[i] - a_xv[3 + i];
-        }
-        let ltw = l.transpose() * &w;
-        let block = &ltw * &l;
-        let g = -(&ltw * d);
-        // Scatter into the normal equations: indices of (p, φ_k, φ_{k+1}).
+        stretch.attitude_columns(&mut l, n_p);
         let idx: Vec<usize> = (0..n_p)
             .chain(phi(k)..phi(k) + 3)
             .chain(phi(k + 1)..phi(k + 1) + 3)
             .collect();
-        for (a_i, &gi) in idx.iter().enumerate() {
-            rhs[gi] += g[a_i];
-            for (b_i, &gj) in idx.iter().enumerate() {
-                normal[(gi, gj)] += block[(a_i, b_i)];
-            }
-        }
+        normal.add_observation(&idx, &l, &stretch.w, &stretch.d);
     }
-    let chol = normal.cholesky().ok_or_else(|| {
+    let sol = normal.solve().ok_or_else(|| {
         CalibError::Numerical("least-squares normal equations are singular".into())
     })?;
-    let u = chol.solve(&rhs);
-    let cov_diag = chol.inverse().diagonal();
+    let cov_diag = sol.cov.diagonal();
     Ok((0..n_p)
-        .map(|i| (u[i] * prior[i], cov_diag[i].max(0.0).sqrt() * prior[i]))
+        .map(|i| (sol.u[i] * prior[i], cov_diag[i].max(0.0).sqrt() * prior[i]))
         .unzip())
 }

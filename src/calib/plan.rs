@@ -14,8 +14,11 @@ use std::sync::atomic::AtomicBool;
 
 use serde::{Deserialize, Serialize};
 
+use super::error::CalibError;
+use super::estimate::estimate;
+use super::options::{EstimateOptions, NoiseDensity};
+use super::run::{EstimatorKind, RunInfo};
 use super::sources::SimSource;
-use super::{estimate, CalibError, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo};
 use crate::model::{Effects, ErrorParameters};
 use crate::nav::Site;
 use crate::sim::{Noise, Scheme, SimConfig};

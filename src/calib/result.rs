@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::model_check::ModelCheck;
+use super::misfit::ModelCheck;
 use super::segment::RunSegment;
 
 /// One estimated parameter in its canonical unit.

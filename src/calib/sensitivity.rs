@@ -14,6 +14,8 @@
 
 use nalgebra::{Matrix3, Vector3};
 
+use crate::model::params::Group;
+
 /// Which rows a column drives: attitude (0..3) or velocity (3..6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Rows {
@@ -33,32 +35,44 @@ pub fn base_columns(
     let c = |i: usize| c_b_n.column(i).into_owned();
     let (cx, cy, cz) = (c(0), c(1), c(2));
     use Rows::{Attitude as A, Velocity as V};
+    let axes = [cx, cy, cz];
     // Gyro biases, scale factors, misalignments (upper triangle of K_g).
-    add(0, A, cx * dt);
-    add(1, A, cy * dt);
-    add(2, A, cz * dt);
-    add(3, A, cx * dtheta.x);
-    add(4, A, cy * dtheta.y);
-    add(5, A, cz * dtheta.z);
-    add(6, A, cx * dtheta.y); // M_gxy
-    add(7, A, cx * dtheta.z); // M_gxz
-    add(8, A, cy * dtheta.z); // M_gyz
-                              // Accelerometer biases, scale factors, misalignments, quadratic terms.
-    add(9, V, cx * dt);
-    add(10, V, cy * dt);
-    add(11, V, cz * dt);
-    add(12, V, cx * dv.x);
-    add(13, V, cy * dv.y);
-    add(14, V, cz * dv.z);
-    add(15, V, cx * dv.y); // M_axy
-    add(16, V, cx * dv.z); // M_axz
-    add(17, V, cy * dv.x); // M_ayx
-    add(18, V, cy * dv.z); // M_ayz
-    add(19, V, cz * dv.x); // M_azx
-    add(20, V, cz * dv.y); // M_azy
-    add(21, V, cx * (dv.x * dv.x / dt));
-    add(22, V, cy * (dv.y * dv.y / dt));
-    add(23, V, cz * (dv.z * dv.z / dt));
+    let (gb, gs, gm) = (
+        Group::GyroBias.first(),
+        Group::GyroScale.first(),
+        Group::GyroMisalign.first(),
+    );
+    for (i, axis) in axes.iter().enumerate() {
+        add(gb + i, A, axis * dt);
+    }
+    for (i, axis) in axes.iter().enumerate() {
+        add(gs + i, A, axis * dtheta[i]);
+    }
+    add(gm, A, cx * dtheta.y); // M_gxy
+    add(gm + 1, A, cx * dtheta.z); // M_gxz
+    add(gm + 2, A, cy * dtheta.z); // M_gyz
+                                   // Accelerometer biases, scale factors, misalignments, quadratic terms.
+    let (ab, as_, am, aq) = (
+        Group::AccelBias.first(),
+        Group::AccelScale.first(),
+        Group::AccelMisalign.first(),
+        Group::AccelQuad.first(),
+    );
+    for (i, axis) in axes.iter().enumerate() {
+        add(ab + i, V, axis * dt);
+    }
+    for (i, axis) in axes.iter().enumerate() {
+        add(as_ + i, V, axis * dv[i]);
+    }
+    add(am, V, cx * dv.y); // M_axy
+    add(am + 1, V, cx * dv.z); // M_axz
+    add(am + 2, V, cy * dv.x); // M_ayx
+    add(am + 3, V, cy * dv.z); // M_ayz
+    add(am + 4, V, cz * dv.x); // M_azx
+    add(am + 5, V, cz * dv.y); // M_azy
+    for (i, axis) in axes.iter().enumerate() {
+        add(aq + i, V, axis * (dv[i] * dv[i] / dt));
+    }
 }
 
 #[cfg(test)]

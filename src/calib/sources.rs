@@ -1,7 +1,8 @@
 //! Record sources that need no files: a simulation regenerated on every
 //! pass (tests, planning), and any in-memory slice (short runs).
 
-use super::{CalibError, RecordSource};
+use super::error::CalibError;
+use super::run::RecordSource;
 use crate::record::Record;
 use crate::sim::{simulate, SimConfig};
 

@@ -279,7 +279,7 @@ pub fn describe(thresholds: &[DetectionThreshold]) -> String {
                 ));
             }
             if let Some((i, &w)) = worst {
-                if t.per_parameter.len() > 1 && w > 3.0 * t.size {
+                if t.per_parameter.len() > 1 && w > ALONE_NOTE_FACTOR * t.size {
                     notes.push(format!("{} alone only ≥ {}", t.params[i], figure(w)));
                 }
             }
@@ -291,6 +291,12 @@ pub fn describe(thresholds: &[DetectionThreshold]) -> String {
         .collect::<Vec<_>>()
         .join(", ")
 }
+
+/// A multi-parameter effect's hardest parameter is noted ("… alone only
+/// ≥ …") when its own threshold exceeds the effect's by more than this:
+/// below it the effect's figure already says enough, above it a reader
+/// would misjudge what the run sees of that parameter.
+const ALONE_NOTE_FACTOR: f64 = 3.0;
 
 /// Three significant figures, in plain notation where that is short.
 fn figure(x: f64) -> String {

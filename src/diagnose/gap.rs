@@ -24,10 +24,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
-use super::DiagnoseError;
-use crate::calib::estimate::{initial_navigation_covariance, prior_sigma, walk, PassContext};
-use crate::calib::filter::{error_dynamics, process_noise, transition, SystematicFilter, NAV};
-use crate::calib::lsq::NodeSchedule;
+use super::error::DiagnoseError;
+use crate::calib::filter::{error_dynamics, NAV};
+use crate::calib::nodes::{walk_nodes, Stretch};
+use crate::calib::normal::NormalEquations;
+use crate::calib::priors::{start_attitude_information, white_noise_density};
+use crate::calib::walk::PassContext;
 use crate::calib::CalibError;
 use crate::model::{Compensator, Effects, ErrorParameters, N_PARAMS};
 use crate::nav::attitude::attitude_difference_n;
@@ -63,12 +65,7 @@ pub(crate) fn measured_nodes(
     c_b_n0: &Matrix3<f64>,
     progress: &mut dyn FnMut(f64),
 ) -> Result<Nodes, CalibError> {
-    let site = &ctx.run.site;
     let comp = params.compensator();
-    let prior = prior_sigma(ctx.opts.prior_scale);
-    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-    let p0 = initial_navigation_covariance(ctx);
-    let mut sens = SystematicFilter::new(f, &p0, &prior, ctx.arw, ctx.vrw, 1.0);
     let dt = 1.0 / ctx.run.sample_rate_hz;
     let rec_no = |t: f64| ((t - ctx.scan.t_begin) / dt).round() as u64;
     let window_s = ctx.window() as f64 * dt;
@@ -80,17 +77,15 @@ pub(crate) fn measured_nodes(
         segment: vec![0],
         series: vec![(0, Vector3::zeros())],
     };
-    let mut schedule = NodeSchedule::new(window_s);
-    walk(ctx, &comp, c_b_n0, &mut sens, progress, |sens, w| {
+    walk_nodes(ctx, &comp, c_b_n0, window_s, progress, |w, node| {
         nodes.series.push((rec_no(w.t_end), w.nav.v_n));
-        if let Some(d) = schedule.node_at(&ctx.scan.segments, w.t_start, w.t_end) {
+        if let Some((d, b)) = node {
             nodes.t.push(w.t_end);
             nodes.record.push(rec_no(w.t_end));
             nodes.v.push(w.nav.v_n);
-            nodes.b.push(sens.take_sensitivity());
+            nodes.b.push(b);
             nodes.segment.push(d);
         }
-        Ok(())
     })?;
     if nodes.t.len() < 3 {
         return Err(CalibError::Unusable("too few dwells for the gap".into()));
@@ -266,13 +261,10 @@ pub fn signatures(
     Ok(out)
 }
 
-/// One stretch between nodes, ready for the normal equations.
-struct Stretch {
-    a: Matrix6<f64>,
-    w: DMatrix<f64>,
-    q: Matrix6<f64>,
-    /// Constant part of the residual (unknowns at zero).
-    d: DVector<f64>,
+/// One stretch between nodes, ready for the normal equations: the error
+/// model over it (whose d is the gap's part) and the parameter columns.
+struct GapStretch {
+    model: Stretch,
     /// −B (6 × 24).
     b: DMatrix<f64>,
     /// −E for every effect parameter (6 × n_effect_params).
@@ -281,7 +273,7 @@ struct Stretch {
 
 /// The gap problem: every stretch, fit with any subset of effect columns.
 pub struct GapProblem {
-    stretches: Vec<Stretch>,
+    stretches: Vec<GapStretch>,
     p0_phi_inv: Matrix3<f64>,
     n_nodes: usize,
 }
@@ -358,34 +350,17 @@ impl GapProblem {
     ) -> Result<Self, DiagnoseError> {
         let site = &ctx.run.site;
         let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-        let p0 = initial_navigation_covariance(ctx);
-        let p0_phi_inv = p0
-            .fixed_view::<3, 3>(0, 0)
-            .into_owned()
-            .try_inverse()
+        let p0_phi_inv = start_attitude_information(site, ctx.opts.prior_scale)
             .ok_or_else(|| DiagnoseError::Numerical("singular attitude prior".into()))?;
-        let mut qc = Matrix6::zeros();
-        for i in 0..3 {
-            qc[(i, i)] = ctx.arw * ctx.arw;
-            qc[(3 + i, 3 + i)] = ctx.vrw * ctx.vrw;
-        }
+        let qc = white_noise_density(ctx.arw, ctx.vrw);
         let k_nodes = nodes.t.len();
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         let gap = |k: usize| nodes.v[k] - sig.v_sim[k];
         for k in 0..k_nodes - 1 {
             let t = nodes.t[k + 1] - nodes.t[k];
-            let a = transition(&f, t);
-            let q = process_noise(&f, &qc, t);
-            let w = q
-                .try_inverse()
+            let model = Stretch::new(&f, &qc, t, &gap(k), &gap(k + 1))
                 .ok_or_else(|| DiagnoseError::Numerical("singular process noise".into()))?;
-            let a_xv = a.fixed_view::<6, 3>(0, 3) * gap(k);
-            let mut d = DVector::<f64>::zeros(6);
-            let vn = gap(k + 1);
-            for i in 0..3 {
-                d[i] = -a_xv[i];
-                d[3 + i] = vn[i] - a_xv[3 + i];
-            }
+            let a = model.a;
             let mut e = DMatrix::<f64>::zeros(6, n_effect_params);
             for j in 0..n_effect_params {
                 let col = sig.x[j][k + 1] - a * sig.x[j][k];
@@ -393,11 +368,8 @@ impl GapProblem {
                     e[(i, j)] = -col[i];
                 }
             }
-            stretches.push(Stretch {
-                a,
-                w: DMatrix::from_column_slice(6, 6, w.as_slice()),
-                q,
-                d,
+            stretches.push(GapStretch {
+                model,
                 b: -&nodes.b[k + 1],
                 e,
             });
@@ -416,57 +388,30 @@ impl GapProblem {
         let n_e = effects.len();
         let phi = |k: usize| n_p + n_e + 3 * k;
         let n = n_p + n_e + 3 * self.n_nodes;
-        let mut normal = DMatrix::<f64>::zeros(n, n);
-        let mut rhs = DVector::<f64>::zeros(n);
-        for i in 0..n_p {
-            normal[(i, i)] += 1.0;
-        }
-        for i in 0..n_e {
-            normal[(n_p + i, n_p + i)] += 1.0 / (EFFECT_PRIOR * EFFECT_PRIOR);
-        }
-        for i in 0..3 {
-            for j in 0..3 {
-                normal[(phi(0) + i, phi(0) + j)] += self.p0_phi_inv[(i, j)];
-            }
-        }
+        let mut normal = NormalEquations::new(n);
+        normal.add_diagonal(0..n_p, 1.0);
+        normal.add_diagonal(n_p..n_p + n_e, 1.0 / (EFFECT_PRIOR * EFFECT_PRIOR));
+        normal.add_block3(phi(0), &self.p0_phi_inv);
         let local = |k: usize| -> Vec<usize> {
             (0..n_p + n_e).chain(phi(k)..phi(k) + 6).collect::<Vec<_>>()
         };
-        let design = |k: usize, s: &Stretch| -> DMatrix<f64> {
+        let design = |k: usize, s: &GapStretch| -> DMatrix<f64> {
             let mut l = DMatrix::<f64>::zeros(6, n_p + n_e + 6);
             l.view_mut((0, 0), (6, n_p)).copy_from(&s.b);
             for (c, &j) in effects.iter().enumerate() {
                 l.view_mut((0, n_p + c), (6, 1)).copy_from(&s.e.column(j));
             }
-            for i in 0..6 {
-                for j in 0..3 {
-                    l[(i, n_p + n_e + j)] = -s.a[(i, j)];
-                }
-            }
-            for j in 0..3 {
-                l[(j, n_p + n_e + 3 + j)] = 1.0;
-            }
+            s.model.attitude_columns(&mut l, n_p + n_e);
             let _ = k;
             l
         };
         for (k, s) in self.stretches.iter().enumerate() {
-            let l = design(k, s);
-            let ltw = l.transpose() * &s.w;
-            let block = &ltw * &l;
-            let g = -(&ltw * &s.d);
-            let idx = local(k);
-            for (ai, &gi) in idx.iter().enumerate() {
-                rhs[gi] += g[ai];
-                for (bi, &gj) in idx.iter().enumerate() {
-                    normal[(gi, gj)] += block[(ai, bi)];
-                }
-            }
+            normal.add_observation(&local(k), &design(k, s), &s.model.w, &s.model.d);
         }
-        let chol = normal.cholesky().ok_or_else(|| {
+        let sol = normal.solve().ok_or_else(|| {
             DiagnoseError::Numerical("the gap's normal equations are singular".into())
         })?;
-        let u = chol.solve(&rhs);
-        let cov = chol.inverse();
+        let (u, cov) = (sol.u, sol.cov);
         let mut chi2 = 0.0;
         let mut dof = 0.0;
         let mut residual = Vec::with_capacity(self.stretches.len());
@@ -477,19 +422,19 @@ impl GapProblem {
             let l = design(k, s);
             let idx = local(k);
             let u_loc = DVector::from_iterator(idx.len(), idx.iter().map(|&i| u[i]));
-            let r = &l * &u_loc + &s.d;
-            let chi2_k = (r.transpose() * &s.w * &r)[(0, 0)];
+            let r = &l * &u_loc + &s.model.d;
+            let chi2_k = (r.transpose() * &s.model.w * &r)[(0, 0)];
             chi2 += chi2_k;
             let c_loc = DMatrix::from_fn(idx.len(), idx.len(), |a, b| cov[(idx[a], idx[b])]);
             let hc = &l * c_loc * l.transpose();
-            let mut rc = s.q;
+            let mut rc = s.model.q;
             for i in 0..6 {
                 for j in 0..6 {
                     rc[(i, j)] -= hc[(i, j)];
                 }
             }
             let rc_d = DMatrix::from_column_slice(6, 6, rc.as_slice());
-            let dof_k = (&s.w * rc_d).trace();
+            let dof_k = (&s.model.w * rc_d).trace();
             dof += dof_k;
             stretch_chi2.push(chi2_k);
             stretch_dof.push(dof_k);

@@ -4,7 +4,7 @@
 
 use std::fmt::Write;
 
-use super::DiagnoseReport;
+use super::report::DiagnoseReport;
 
 const W: f64 = 900.0;
 const H: f64 = 260.0;

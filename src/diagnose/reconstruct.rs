@@ -21,8 +21,8 @@
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::DiagnoseError;
-use crate::calib::estimate::Prescan;
+use super::error::DiagnoseError;
+use crate::calib::prescan::Prescan;
 use crate::calib::{RecordSource, SegmentKind};
 use crate::model::Compensator;
 use crate::nav::attitude::rotvec_to_dcm;

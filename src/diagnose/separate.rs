@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use super::DiagnoseError;
+use super::error::DiagnoseError;
 use crate::calib::CalibError;
 use crate::model::{Effects, ErrorParameters};
 use crate::nav::{Site, Strapdown};

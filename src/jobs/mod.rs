@@ -21,7 +21,8 @@ use crate::diagnose::{DiagnoseError, DiagnoseOptions};
 use crate::io::meta::RunMetadata;
 use crate::metrics::{JobOutcome, Metrics};
 use crate::pipeline::{calibrate_file, diagnose_file};
-use crate::store::{Claim, OnInadequate, Store, StoreError};
+use crate::runfiles::RunFiles;
+use crate::store::{Claim, JobKind, JobState, OnInadequate, Store, StoreError};
 
 /// Errors of the job layer (only the database can fail it: an estimator
 /// failure is an outcome of the job, not an error of the worker).
@@ -191,19 +192,14 @@ impl JobRunner {
                     .await
             }
         };
-        let path = self.settings.data_dir.join(&claim.blob_path);
+        let path = RunFiles::new(self.settings.data_dir.clone()).path(&claim.blob_path);
         let cancel = Arc::new(AtomicBool::new(false));
         let progress = Arc::new(Mutex::new((0.0_f64, String::from("starting"))));
-        let diagnose = match claim.kind.as_str() {
-            "calibrate" => false,
-            "diagnose" => true,
-            // The schema's CHECK allows no other kind; a newer server's
-            // kind is not ours to run, and retrying here will not help.
-            other => {
-                return self
-                    .fail(claim, &format!("unknown job kind {other:?}"), false)
-                    .await
-            }
+        // The schema's CHECK allows no other kind (a row with one would
+        // already have failed to decode at the claim).
+        let diagnose = match claim.kind {
+            JobKind::Calibrate => false,
+            JobKind::Diagnose => true,
         };
         let estimate = self.settings.estimate.clone();
         let task = {
@@ -365,7 +361,7 @@ impl JobRunner {
                 .fail_job(&claim.fence, error, retry, backoff)
                 .await?
             {
-                Some(state) if state == "queued" => JobEnd::Retrying,
+                Some(JobState::Queued) => JobEnd::Retrying,
                 Some(_) => JobEnd::Failed,
                 None => JobEnd::LeaseLost,
             },

@@ -23,6 +23,28 @@ pub enum Group {
 }
 
 impl Group {
+    /// Index of the family's first parameter in the canonical order.
+    pub const fn first(self) -> usize {
+        match self {
+            Group::GyroBias => GYRO_BIAS,
+            Group::GyroScale => GYRO_SCALE,
+            Group::GyroMisalign => GYRO_MISALIGN,
+            Group::AccelBias => ACCEL_BIAS,
+            Group::AccelScale => ACCEL_SCALE,
+            Group::AccelMisalign => ACCEL_MISALIGN,
+            Group::AccelQuad => ACCEL_QUAD,
+        }
+    }
+
+    /// Indices of the family's parameters in the canonical order.
+    pub fn range(self) -> std::ops::Range<usize> {
+        let len = match self {
+            Group::AccelMisalign => 6,
+            _ => 3,
+        };
+        self.first()..self.first() + len
+    }
+
     /// Every family, in SPEC §2 table order.
     pub const ALL: [Group; 7] = [
         Group::GyroBias,
@@ -336,5 +358,21 @@ mod tests {
             ErrorParameters::from_canonical(&map),
             Err(ParameterError::Missing("accel_quad_z"))
         );
+    }
+}
+
+#[cfg(test)]
+mod group_tests {
+    use super::*;
+
+    #[test]
+    fn family_ranges_tile_the_table() {
+        let mut next = 0;
+        for g in Group::ALL {
+            assert_eq!(g.range().start, next);
+            assert!(g.range().all(|i| PARAMETERS[i].group == g));
+            next = g.range().end;
+        }
+        assert_eq!(next, N_PARAMS);
     }
 }

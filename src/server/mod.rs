@@ -6,7 +6,7 @@
 
 use std::future::Future;
 use std::net::SocketAddr;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
@@ -18,6 +18,7 @@ use crate::api::{self, auth, AppState};
 use crate::config::{Config, ConfigError, ServeArgs};
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
 use crate::metrics::Metrics;
+use crate::runfiles::{RunFiles, Swept};
 use crate::store::{OnInadequate, Role, Store, StoreError};
 
 /// Errors starting or running the server.
@@ -44,44 +45,18 @@ fn io_err(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> ServerError
 
 /// Creates the data folders, opens the database (applying migrations).
 async fn open_store(data_dir: &Path, readers: u32) -> Result<Store, ServerError> {
-    std::fs::create_dir_all(data_dir.join("runs").join("tmp"))
+    RunFiles::new(data_dir)
+        .create_dirs()
         .map_err(io_err(format!("creating {}", data_dir.display())))?;
     Ok(Store::open(&data_dir.join("sinscal.db"), readers).await?)
 }
 
-/// Removes what a crash can leave behind: partial uploads in `runs/tmp`,
-/// and run files renamed into place whose rows never committed. Runs
-/// before the server accepts uploads, so nothing in flight is touched.
-async fn sweep_orphans(store: &Store, data_dir: &Path) -> Result<(usize, usize), ServerError> {
-    let known: std::collections::HashSet<PathBuf> = store
-        .all_blob_paths()
-        .await?
-        .into_iter()
-        .map(|p| data_dir.join(p))
-        .collect();
-    let runs = data_dir.join("runs");
-    let (mut partial, mut orphans) = (0, 0);
-    let rd =
-        |dir: &Path| std::fs::read_dir(dir).map_err(io_err(format!("listing {}", dir.display())));
-    for entry in rd(&runs.join("tmp"))? {
-        let entry = entry.map_err(io_err("listing runs/tmp"))?;
-        if std::fs::remove_file(entry.path()).is_ok() {
-            partial += 1;
-        }
-    }
-    for shard in rd(&runs)? {
-        let shard = shard.map_err(io_err("listing runs"))?.path();
-        if !shard.is_dir() || shard.file_name().is_some_and(|n| n == "tmp") {
-            continue;
-        }
-        for file in rd(&shard)? {
-            let file = file.map_err(io_err("listing a run shard"))?.path();
-            if !known.contains(&file) && std::fs::remove_file(&file).is_ok() {
-                orphans += 1;
-            }
-        }
-    }
-    Ok((partial, orphans))
+/// Removes what a crash can leave behind (see [`RunFiles::sweep`]).
+async fn sweep_orphans(store: &Store, data_dir: &Path) -> Result<Swept, ServerError> {
+    let known = store.all_blob_paths().await?.into_iter().collect();
+    RunFiles::new(data_dir)
+        .sweep(&known)
+        .map_err(io_err("sweeping the run files"))
 }
 
 /// A built, bound server, not yet running.
@@ -99,7 +74,7 @@ impl Application {
     pub async fn build(config: Config) -> Result<Application, ServerError> {
         let readers = (config.max_concurrent_requests.min(16)) as u32;
         let store = open_store(&config.data_dir, readers).await?;
-        let (partial, orphans) = sweep_orphans(&store, &config.data_dir).await?;
+        let Swept { partial, orphans } = sweep_orphans(&store, &config.data_dir).await?;
         if partial + orphans > 0 {
             tracing::info!(partial, orphans, "removed files left by an earlier crash");
         }

@@ -1,0 +1,17 @@
+//! What can stop a calibration.
+
+/// Errors of a calibration.
+#[derive(Debug, thiserror::Error)]
+pub enum CalibError {
+    /// The record source failed (bad data, I/O); its message names where.
+    #[error("{0}")]
+    Source(String),
+    #[error("cancelled")]
+    Cancelled,
+    /// The run cannot be calibrated as recorded (no initial dwell, too few
+    /// dwells, …).
+    #[error("run not usable: {0}")]
+    Unusable(String),
+    #[error("numerical failure: {0}")]
+    Numerical(String),
+}

@@ -1,0 +1,168 @@
+//! One pass of the systematic filter: alignment, then the filter over the
+//! compensated run with zero-velocity updates in the dwells, and what the
+//! pass leaves for the result (the estimate, its history, the dwells'
+//! post-fit residuals and the model check).
+
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
+
+use super::error::CalibError;
+use super::filter::Innovation;
+use super::model_check::{CheckAccumulator, ModelCheck};
+use super::prescan::dwell_at;
+use super::result::{Convergence, DwellResidual};
+use super::segment::SegmentKind;
+use super::walk::{align_start, walk, PassContext};
+use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
+
+/// Sums over one dwell's zero-velocity innovations, from which the
+/// post-fit residual ȳ − M p̂ follows for the final estimate p̂ without
+/// storing the innovations: Σ(y_i − m_i·p)² = Σy_i² − 2 p·Σy_i m_i + pᵀ(Σ m_i m_iᵀ)p.
+struct DwellAccumulator {
+    n: usize,
+    sum_y: Vector3<f64>,
+    sum_y2: Vector3<f64>,
+    sum_m: DMatrix<f64>,
+    sum_ym: DMatrix<f64>,
+    sum_mm: [DMatrix<f64>; 3],
+}
+
+impl DwellAccumulator {
+    fn new(n_p: usize) -> Self {
+        DwellAccumulator {
+            n: 0,
+            sum_y: Vector3::zeros(),
+            sum_y2: Vector3::zeros(),
+            sum_m: DMatrix::zeros(3, n_p),
+            sum_ym: DMatrix::zeros(3, n_p),
+            sum_mm: std::array::from_fn(|_| DMatrix::zeros(n_p, n_p)),
+        }
+    }
+
+    fn add(&mut self, innov: &Innovation) {
+        let y = innov.y_bar;
+        self.n += 1;
+        self.sum_y += y;
+        self.sum_y2 += y.component_mul(&y);
+        self.sum_m += &innov.m;
+        for i in 0..3 {
+            let col = innov.m.row(i).transpose();
+            for k in 0..col.len() {
+                self.sum_ym[(i, k)] += y[i] * col[k];
+            }
+            self.sum_mm[i].ger(1.0, &col, &col, 1.0);
+        }
+    }
+
+    /// RMS and mean of the post-fit innovations per axis.
+    fn post_fit(&self, p: &DVector<f64>) -> (Vector3<f64>, Vector3<f64>) {
+        let n = self.n.max(1) as f64;
+        let mp = &self.sum_m * p;
+        let mut rms = Vector3::zeros();
+        let mut mean = Vector3::zeros();
+        for i in 0..3 {
+            let cross = self.sum_ym.row(i).dot(&p.transpose());
+            let quad = (p.transpose() * &self.sum_mm[i] * p)[(0, 0)];
+            rms[i] = ((self.sum_y2[i] - 2.0 * cross + quad) / n).max(0.0).sqrt();
+            mean[i] = (self.sum_y[i] - mp[i]) / n;
+        }
+        (rms, mean)
+    }
+}
+
+/// The result of one filter pass.
+pub(super) struct Pass {
+    /// Residual parameter estimate, SI.
+    pub delta: Vec<f64>,
+    pub sigma: Vec<f64>,
+    pub c_b_n0: Matrix3<f64>,
+    pub history: Convergence,
+    pub dwell_residuals: Vec<DwellResidual>,
+    /// Whether the model explains the pass's zero-velocity residuals.
+    pub model_check: Option<ModelCheck>,
+}
+
+/// One pass of alignment and the filter over the records compensated with
+/// `params`.
+pub(super) fn kf_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
+    let comp = params.compensator();
+    let c_b_n0 = align_start(ctx, &comp)?;
+
+    let mut kf = ctx.filter(ctx.opts.zupt_sigma_mps);
+
+    let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
+    // One slot kept for the last window, so the history never exceeds
+    // `history_points`.
+    let every = n_windows
+        .div_ceil(ctx.opts.history_points.saturating_sub(1).max(1))
+        .max(1);
+    let mut history = Convergence {
+        names: PARAMETERS.iter().map(|p| p.name.to_string()).collect(),
+        ..Default::default()
+    };
+    let mut dwell_acc: Vec<DwellAccumulator> = (0..ctx.scan.segments.len())
+        .map(|_| DwellAccumulator::new(N_PARAMS))
+        .collect();
+    let mut check = CheckAccumulator::new(&ctx.scan.segments, N_PARAMS);
+
+    walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
+        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
+        let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
+        if dwell.is_some() || ctx.opts.zupt_in_motion {
+            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
+            if let Some(d) = dwell {
+                dwell_acc[d].add(&innov);
+                check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
+            }
+            let (phi, dv) = kf.take_navigation_errors();
+            w.nav.correct(&phi, &dv, &Vector3::zeros());
+            w.corrected = true;
+        }
+        if w.index % every == 0 || w.index + 1 == n_windows {
+            let (d, s) = kf.parameters()?;
+            history.t.push(w.t_end);
+            history.value.push(
+                (0..N_PARAMS)
+                    .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
+                    .collect(),
+            );
+            history.sigma.push(
+                (0..N_PARAMS)
+                    .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
+                    .collect(),
+            );
+        }
+        Ok(())
+    })?;
+
+    let (delta, sigma) = kf.parameters()?;
+    if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {
+        return Err(CalibError::Numerical("the filter diverged".into()));
+    }
+    let p_hat = kf.scaled_estimate()?;
+    let mut dwell_residuals = Vec::new();
+    for (i, seg) in ctx.scan.segments.iter().enumerate() {
+        if seg.kind == SegmentKind::Dwell {
+            let (rms, mean) = dwell_acc[i].post_fit(&p_hat);
+            dwell_residuals.push(DwellResidual {
+                dwell: dwell_residuals.len() + 1,
+                t_start: seg.t_start,
+                t_end: seg.t_end,
+                rms_mps: rms.into(),
+                drift_mps2: (mean / ctx.opts.window_s).into(),
+            });
+        }
+    }
+    let model_check = Some(check.finish(&p_hat, &dwell_residuals));
+    Ok(Pass {
+        delta,
+        sigma,
+        c_b_n0,
+        history,
+        dwell_residuals,
+        model_check,
+    })
+}

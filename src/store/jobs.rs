@@ -1,0 +1,241 @@
+//! Jobs as rows: reading them, counting them, cancelling them, and queueing
+//! a diagnosis. (What a worker does to the job it holds is `queue`.)
+
+use std::collections::BTreeMap;
+
+use sqlx::FromRow;
+
+use super::db::{now_ms, Store};
+use super::error::StoreError;
+use super::kinds::{JobKind, JobState};
+
+#[derive(Clone, Debug, FromRow)]
+pub struct JobRow {
+    pub id: String,
+    pub run_id: String,
+    pub kind: JobKind,
+    pub state: JobState,
+    pub attempts: i64,
+    pub max_attempts: i64,
+    pub lease_owner: Option<String>,
+    pub lease_expires_at: Option<i64>,
+    pub heartbeat_at: Option<i64>,
+    pub progress: f64,
+    pub stage: Option<String>,
+    pub cancel_requested: bool,
+    pub error: Option<String>,
+    pub created_at: i64,
+    pub started_at: Option<i64>,
+    pub finished_at: Option<i64>,
+}
+
+/// What `queue_diagnose_job` did.
+#[derive(Clone, Debug)]
+pub enum DiagnoseQueued {
+    /// A new diagnose job, queued.
+    Created(JobRow),
+    /// A diagnose job for this run was already queued or running: it.
+    Existing(JobRow),
+    NoRun,
+    /// The queue holds `max_queue` jobs already.
+    QueueFull,
+}
+
+/// How many jobs of one state (`SELECT state, COUNT(*) AS n ...`).
+#[derive(FromRow)]
+pub(super) struct StateCount {
+    state: JobState,
+    n: i64,
+}
+
+/// Counts keyed by the state's name (the JSON key and metrics label).
+pub(super) fn by_state_name(rows: Vec<StateCount>) -> BTreeMap<String, i64> {
+    rows.into_iter()
+        .map(|c| (c.state.as_str().to_string(), c.n))
+        .collect()
+}
+
+/// Jobs waiting for a worker, on either pool or inside a transaction.
+pub(super) async fn count_queued<'e>(e: impl sqlx::SqliteExecutor<'e>) -> Result<i64, StoreError> {
+    Ok(
+        sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
+            .fetch_one(e)
+            .await?,
+    )
+}
+
+impl Store {
+    pub async fn queue_depth(&self) -> Result<i64, StoreError> {
+        count_queued(&self.read).await
+    }
+
+    pub async fn get_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+        Ok(sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&self.read)
+            .await?)
+    }
+
+    /// Jobs per state (every state present, zero included).
+    pub async fn job_counts(&self) -> Result<BTreeMap<String, i64>, StoreError> {
+        let mut counts: BTreeMap<String, i64> = JobState::ALL
+            .iter()
+            .map(|s| (s.as_str().to_string(), 0))
+            .collect();
+        let rows = sqlx::query_as("SELECT state, COUNT(*) AS n FROM jobs GROUP BY state")
+            .fetch_all(&self.read)
+            .await?;
+        counts.extend(by_state_name(rows));
+        Ok(counts)
+    }
+
+    /// A run's most recent diagnose job, if any.
+    pub async fn latest_diagnose_job(&self, run_id: &str) -> Result<Option<JobRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+             ORDER BY created_at DESC, id DESC LIMIT 1",
+        )
+        .bind(run_id)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Cancels a queued job at once, or asks a running one's worker to stop.
+    /// Returns the job afterwards, `None` if there is none.
+    pub async fn cancel_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+        let now = now_ms();
+        let mut tx = self.begin_write().await?;
+        sqlx::query(
+            "UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1
+             WHERE id = ? AND state = 'queued'",
+        )
+        .bind(now)
+        .bind(id)
+        .execute(&mut *tx)
+        .await?;
+        sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND state = 'running'")
+            .bind(id)
+            .execute(&mut *tx)
+            .await?;
+        let job = sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        tx.commit().await?;
+        Ok(job)
+    }
+
+    /// Queues a diagnose job for a run, unless the run does not exist, a
+    /// diagnose job for it is already queued or running (returned instead),
+    /// or the queue is full.
+    pub async fn queue_diagnose_job(
+        &self,
+        run_id: &str,
+        job_id: &str,
+        max_attempts: i64,
+        max_queue: i64,
+    ) -> Result<DiagnoseQueued, StoreError> {
+        let now = now_ms();
+        let mut tx = self.begin_write().await?;
+        let exists: Option<i64> = sqlx::query_scalar("SELECT 1 FROM runs WHERE id = ?")
+            .bind(run_id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        if exists.is_none() {
+            return Ok(DiagnoseQueued::NoRun);
+        }
+        let active: Option<JobRow> = sqlx::query_as(
+            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+                AND state IN ('queued', 'running')",
+        )
+        .bind(run_id)
+        .fetch_optional(&mut *tx)
+        .await?;
+        if let Some(job) = active {
+            return Ok(DiagnoseQueued::Existing(job));
+        }
+        if count_queued(&mut *tx).await? >= max_queue {
+            return Ok(DiagnoseQueued::QueueFull);
+        }
+        let job = sqlx::query_as(
+            "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
+             VALUES (?, ?, 'diagnose', 'queued', ?, ?, ?)
+             RETURNING *",
+        )
+        .bind(job_id)
+        .bind(run_id)
+        .bind(max_attempts)
+        .bind(now)
+        .bind(now)
+        .fetch_one(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(DiagnoseQueued::Created(job))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A job `id` of its own run (so the one-job-per-run indexes stay out
+    /// of it) with this kind and state, read back.
+    async fn insert_job<'a, K, S>(
+        conn: &mut sqlx::SqliteConnection,
+        id: &'a str,
+        kind: K,
+        state: S,
+    ) -> Result<JobRow, sqlx::Error>
+    where
+        K: sqlx::Encode<'a, sqlx::Sqlite> + sqlx::Type<sqlx::Sqlite> + Send + 'a,
+        S: sqlx::Encode<'a, sqlx::Sqlite> + sqlx::Type<sqlx::Sqlite> + Send + 'a,
+    {
+        sqlx::query(
+            "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format,
+                               gzip, blob_path, metadata, run_time, uploaded_at)
+             VALUES (?1, 'U', ?1, 0, 0, 'csv', 0, 'runs/x', '{}', 0, 0)",
+        )
+        .bind(id)
+        .execute(&mut *conn)
+        .await?;
+        sqlx::query(
+            "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
+             VALUES (?1, ?1, ?2, ?3, 1, 0, 0)",
+        )
+        .bind(id)
+        .bind(kind)
+        .bind(state)
+        .execute(&mut *conn)
+        .await?;
+        sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+            .bind(id)
+            .fetch_one(&mut *conn)
+            .await
+    }
+
+    /// Every spelling of the Rust vocabularies is one the schema's CHECK
+    /// constraints accept, read back as the same value; others are refused.
+    #[tokio::test]
+    async fn every_kind_and_state_is_a_value_the_schema_accepts() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("k.db"), 1).await.unwrap();
+        let mut tx = store.begin_write().await.unwrap();
+        sqlx::query("INSERT INTO units (serial, created_at) VALUES ('U', 0)")
+            .execute(&mut *tx)
+            .await
+            .unwrap();
+        for kind in JobKind::ALL {
+            for state in JobState::ALL {
+                let id = format!("{kind}-{state}");
+                let row = insert_job(&mut tx, &id, kind, state).await.unwrap();
+                assert_eq!((row.kind, row.state), (kind, state));
+            }
+        }
+        assert!(insert_job(&mut tx, "bad-state", "calibrate", "paused")
+            .await
+            .is_err());
+        assert!(insert_job(&mut tx, "bad-kind", "replay", "queued")
+            .await
+            .is_err());
+    }
+}

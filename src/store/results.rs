@@ -1,0 +1,247 @@
+//! Results and what is read from them: a run's result document and latest
+//! diagnosis, units with their counts, a unit's history and the spread of
+//! its parameters over runs (repeatability).
+
+use std::collections::BTreeMap;
+
+use sqlx::FromRow;
+
+use super::db::{Store, WriteTx};
+use super::error::StoreError;
+use super::jobs::by_state_name;
+use super::runs::{insert_unit_and_run, NewRun};
+use super::spread::{self, ParamSpread, SpreadAccumulator};
+use crate::calib::{ModelCheck, ParameterEstimate};
+
+#[derive(Clone, Debug, FromRow)]
+pub struct UnitSummary {
+    pub serial: String,
+    pub created_at: i64,
+    pub runs: i64,
+    pub calibrated: i64,
+    pub last_run_time: Option<i64>,
+}
+
+#[derive(Clone, Debug, FromRow)]
+pub struct HistoryRow {
+    pub run_id: String,
+    pub job_id: String,
+    pub run_time: i64,
+    pub completed_at: i64,
+    pub parameters: String,
+    pub model_adequate: Option<bool>,
+    pub model_summary: Option<String>,
+}
+
+impl Store {
+    pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
+        Ok(
+            sqlx::query_scalar("SELECT result FROM result_documents WHERE run_id = ?")
+                .bind(run_id)
+                .fetch_optional(&self.read)
+                .await?,
+        )
+    }
+
+    /// The report of a run's most recent successful diagnosis.
+    pub async fn latest_diagnosis(&self, run_id: &str) -> Result<Option<String>, StoreError> {
+        Ok(sqlx::query_scalar(
+            "SELECT report FROM diagnoses WHERE run_id = ?
+             ORDER BY completed_at DESC, job_id DESC LIMIT 1",
+        )
+        .bind(run_id)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    pub async fn list_units(
+        &self,
+        limit: i64,
+        offset: i64,
+    ) -> Result<(i64, Vec<UnitSummary>), StoreError> {
+        let total = sqlx::query_scalar("SELECT COUNT(*) FROM units")
+            .fetch_one(&self.read)
+            .await?;
+        let rows = sqlx::query_as(
+            "SELECT u.serial, u.created_at,
+                    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
+                    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
+                    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time
+             FROM units u ORDER BY u.serial LIMIT ? OFFSET ?",
+        )
+        .bind(limit)
+        .bind(offset)
+        .fetch_all(&self.read)
+        .await?;
+        Ok((total, rows))
+    }
+
+    pub async fn get_unit(&self, serial: &str) -> Result<Option<UnitSummary>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT u.serial, u.created_at,
+                    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
+                    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
+                    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time
+             FROM units u WHERE u.serial = ?",
+        )
+        .bind(serial)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Jobs of a unit's runs per state.
+    pub async fn unit_job_counts(&self, serial: &str) -> Result<BTreeMap<String, i64>, StoreError> {
+        let rows = sqlx::query_as(
+            "SELECT j.state, COUNT(*) AS n FROM jobs j JOIN runs r ON r.id = j.run_id
+             WHERE r.unit_serial = ? GROUP BY j.state",
+        )
+        .bind(serial)
+        .fetch_all(&self.read)
+        .await?;
+        Ok(by_state_name(rows))
+    }
+
+    /// A unit's calibrated runs with `from <= run_time < to`, oldest first.
+    pub async fn history(
+        &self,
+        serial: &str,
+        from: i64,
+        to: i64,
+        limit: i64,
+        offset: i64,
+    ) -> Result<(i64, Vec<HistoryRow>), StoreError> {
+        let total = sqlx::query_scalar(
+            "SELECT COUNT(*) FROM results WHERE unit_serial = ? AND run_time >= ? AND run_time < ?",
+        )
+        .bind(serial)
+        .bind(from)
+        .bind(to)
+        .fetch_one(&self.read)
+        .await?;
+        let rows = sqlx::query_as(
+            "SELECT run_id, job_id, run_time, completed_at, parameters, model_adequate, model_summary
+             FROM results
+             WHERE unit_serial = ? AND run_time >= ? AND run_time < ?
+             ORDER BY run_time, run_id LIMIT ? OFFSET ?",
+        )
+        .bind(serial)
+        .bind(from)
+        .bind(to)
+        .bind(limit)
+        .bind(offset)
+        .fetch_all(&self.read)
+        .await?;
+        Ok((total, rows))
+    }
+
+    /// Per-parameter spread over a unit's calibrated runs with
+    /// `run_time >= since`, the `last` most recent of them (`None`: all).
+    ///
+    /// One range scan of `results_unit_time_run` reading one value blob per
+    /// run, in time order (ties by run id, as history orders them).
+    pub async fn repeatability(
+        &self,
+        serial: &str,
+        since: i64,
+        last: Option<i64>,
+    ) -> Result<Vec<ParamSpread>, StoreError> {
+        // Newest first so that LIMIT keeps the `last` most recent (a
+        // negative LIMIT is none in SQLite), then back to time order.
+        let mut blobs: Vec<Vec<u8>> = sqlx::query_scalar(
+            "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
+             ORDER BY run_time DESC, run_id DESC LIMIT ?",
+        )
+        .bind(serial)
+        .bind(since)
+        .bind(last.unwrap_or(-1))
+        .fetch_all(&self.read)
+        .await?;
+        blobs.reverse();
+        let mut acc = SpreadAccumulator::default();
+        for b in &blobs {
+            acc.push(b);
+        }
+        Ok(acc.finish())
+    }
+
+    /// Stores a finished result for a run directly (benchmark seeding and
+    /// tests of the statistics): a run and a succeeded job in one
+    /// transaction.
+    pub async fn seed_calibrated_run(
+        &self,
+        new: &NewRun,
+        parameters: &BTreeMap<String, ParameterEstimate>,
+    ) -> Result<(), StoreError> {
+        let mut tx = self.begin_write().await?;
+        let run_time = new.recorded_at.unwrap_or(new.uploaded_at);
+        insert_unit_and_run(&mut tx, new).await?;
+        sqlx::query(
+            "INSERT INTO jobs (id, run_id, state, attempts, max_attempts, run_after, progress, created_at, finished_at)
+             VALUES (?, ?, 'succeeded', 1, ?, ?, 1, ?, ?)",
+        )
+        .bind(&new.job_id)
+        .bind(&new.run_id)
+        .bind(new.max_attempts)
+        .bind(new.uploaded_at)
+        .bind(new.uploaded_at)
+        .bind(new.uploaded_at)
+        .execute(&mut *tx)
+        .await?;
+        let document = serde_json::json!({ "parameters": parameters }).to_string();
+        let stored = StoredResult {
+            run_id: &new.run_id,
+            job_id: &new.job_id,
+            unit_serial: &new.unit_serial,
+            run_time,
+            completed_at: new.uploaded_at,
+            parameters,
+            model_check: None,
+            document: &document,
+        };
+        insert_result(&mut tx, &stored).await?;
+        tx.commit().await?;
+        Ok(())
+    }
+}
+
+/// A finished calibration as stored: the summary row history and
+/// repeatability read, and the whole document apart.
+pub(super) struct StoredResult<'a> {
+    pub(super) run_id: &'a str,
+    pub(super) job_id: &'a str,
+    pub(super) unit_serial: &'a str,
+    pub(super) run_time: i64,
+    pub(super) completed_at: i64,
+    pub(super) parameters: &'a BTreeMap<String, ParameterEstimate>,
+    pub(super) model_check: Option<&'a ModelCheck>,
+    /// The whole `CalibrationResult` JSON.
+    pub(super) document: &'a str,
+}
+
+pub(super) async fn insert_result(
+    tx: &mut WriteTx,
+    r: &StoredResult<'_>,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
+                              param_values, model_adequate, model_summary)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+    )
+    .bind(r.run_id)
+    .bind(r.job_id)
+    .bind(r.unit_serial)
+    .bind(r.run_time)
+    .bind(r.completed_at)
+    .bind(serde_json::to_string(r.parameters)?)
+    .bind(spread::encode(r.parameters))
+    .bind(r.model_check.map(|c| c.adequate))
+    .bind(r.model_check.map(|c| c.summary.as_str()))
+    .execute(&mut **tx)
+    .await?;
+    sqlx::query("INSERT INTO result_documents (run_id, result) VALUES (?, ?)")
+        .bind(r.run_id)
+        .bind(r.document)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}

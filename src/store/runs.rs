@@ -1,0 +1,260 @@
+//! Runs: the row an upload writes with its calibration job, reads of a run,
+//! and deletion. (The run's file on disk is `crate::runfiles`'s; a row
+//! only names it by `blob_path`.)
+
+use sqlx::FromRow;
+
+use super::db::{Store, WriteTx};
+use super::error::StoreError;
+use super::jobs::count_queued;
+use super::kinds::JobState;
+
+/// A stored run, with its job's id.
+#[derive(Clone, Debug, FromRow)]
+pub struct RunRow {
+    pub id: String,
+    pub unit_serial: String,
+    pub sha256: String,
+    pub size_bytes: i64,
+    pub records: i64,
+    pub format: String,
+    pub gzip: bool,
+    pub blob_path: String,
+    pub metadata: String,
+    pub recorded_at: Option<i64>,
+    pub run_time: i64,
+    pub uploaded_at: i64,
+    /// The token that uploaded it (`None` for runs stored before uploaders
+    /// were recorded).
+    pub uploaded_by: Option<String>,
+    pub job_id: String,
+    /// Whether the run has a result (read by [`Store::get_run`]).
+    #[sqlx(default)]
+    pub calibrated: bool,
+    /// The result's model check, when there is a result.
+    #[sqlx(default)]
+    pub model_adequate: Option<bool>,
+    #[sqlx(default)]
+    pub model_summary: Option<String>,
+}
+
+/// Whether a run needs an engineer's look.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Review {
+    /// Not calibrated yet.
+    Pending,
+    /// Calibrated, and the model explains the run.
+    Clear,
+    /// Calibrated, but the model check found a misfit the 24 parameters
+    /// cannot explain: the values may be biased by a missing effect.
+    NeedsReview,
+}
+
+impl Review {
+    /// The review of a run from its result: none yet, or its model check
+    /// (a result stored before the check existed counts as clear).
+    pub fn of(calibrated: bool, model_adequate: Option<bool>) -> Self {
+        match (calibrated, model_adequate) {
+            (false, _) => Review::Pending,
+            (true, Some(false)) => Review::NeedsReview,
+            (true, _) => Review::Clear,
+        }
+    }
+}
+
+/// What an upload stores once its bytes are on disk.
+#[derive(Clone, Debug)]
+pub struct NewRun {
+    pub run_id: String,
+    pub job_id: String,
+    pub unit_serial: String,
+    pub sha256: String,
+    pub size_bytes: i64,
+    pub records: i64,
+    pub format: String,
+    pub gzip: bool,
+    pub blob_path: String,
+    pub metadata: String,
+    pub recorded_at: Option<i64>,
+    pub uploaded_at: i64,
+    pub max_attempts: i64,
+    /// The uploading token's id.
+    pub uploaded_by: Option<String>,
+}
+
+/// What `insert_run_and_job` did.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum InsertOutcome {
+    Created,
+    /// The same bytes were already stored for this unit: its run and job.
+    Existing {
+        run_id: String,
+        job_id: String,
+    },
+    /// The queue holds `max_queue` jobs already.
+    QueueFull,
+}
+
+/// What `delete_run` did.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum RunDeletion {
+    /// The rows are gone; the run's file (this blob path) is the caller's
+    /// to remove.
+    Deleted {
+        blob_path: String,
+    },
+    NoRun,
+    /// One of the run's jobs is in this state (running): nothing deleted.
+    JobBusy(JobState),
+}
+
+/// A run's id and its calibration job's id.
+#[derive(FromRow)]
+struct RunAndJob {
+    run_id: String,
+    job_id: String,
+}
+
+impl Store {
+    pub async fn find_run_by_hash(
+        &self,
+        unit_serial: &str,
+        sha256: &str,
+    ) -> Result<Option<RunRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT r.*, j.id AS job_id FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
+             WHERE r.unit_serial = ? AND r.sha256 = ?",
+        )
+        .bind(unit_serial)
+        .bind(sha256)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Writes a run and its job in one transaction, unless the same bytes
+    /// are already stored for the unit or the queue is full.
+    pub async fn insert_run_and_job(
+        &self,
+        new: &NewRun,
+        max_queue: i64,
+    ) -> Result<InsertOutcome, StoreError> {
+        let mut tx = self.begin_write().await?;
+        let existing: Option<RunAndJob> = sqlx::query_as(
+            "SELECT r.id AS run_id, j.id AS job_id FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
+             WHERE r.unit_serial = ? AND r.sha256 = ?",
+        )
+        .bind(&new.unit_serial)
+        .bind(&new.sha256)
+        .fetch_optional(&mut *tx)
+        .await?;
+        if let Some(RunAndJob { run_id, job_id }) = existing {
+            return Ok(InsertOutcome::Existing { run_id, job_id });
+        }
+        if count_queued(&mut *tx).await? >= max_queue {
+            return Ok(InsertOutcome::QueueFull);
+        }
+        insert_unit_and_run(&mut tx, new).await?;
+        sqlx::query(
+            "INSERT INTO jobs (id, run_id, state, max_attempts, run_after, created_at)
+             VALUES (?, ?, 'queued', ?, ?, ?)",
+        )
+        .bind(&new.job_id)
+        .bind(&new.run_id)
+        .bind(new.max_attempts)
+        .bind(new.uploaded_at)
+        .bind(new.uploaded_at)
+        .execute(&mut *tx)
+        .await?;
+        tx.commit().await?;
+        Ok(InsertOutcome::Created)
+    }
+
+    pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT r.*, j.id AS job_id, res.run_id IS NOT NULL AS calibrated,
+                    res.model_adequate, res.model_summary FROM runs r
+             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
+             LEFT JOIN results res ON res.run_id = r.id
+             WHERE r.id = ?",
+        )
+        .bind(id)
+        .fetch_optional(&self.read)
+        .await?)
+    }
+
+    /// Every stored blob path: the startup sweep keeps these and removes
+    /// any other run file.
+    pub async fn all_blob_paths(&self) -> Result<Vec<String>, StoreError> {
+        Ok(sqlx::query_scalar("SELECT blob_path FROM runs")
+            .fetch_all(&self.read)
+            .await?)
+    }
+
+    /// Deletes a run with its jobs, results and diagnoses, unless one of
+    /// its jobs is running.
+    pub async fn delete_run(&self, id: &str) -> Result<RunDeletion, StoreError> {
+        let mut tx = self.begin_write().await?;
+        let blob: Option<String> = sqlx::query_scalar("SELECT blob_path FROM runs WHERE id = ?")
+            .bind(id)
+            .fetch_optional(&mut *tx)
+            .await?;
+        let Some(blob_path) = blob else {
+            return Ok(RunDeletion::NoRun);
+        };
+        // Any of the run's jobs (calibration or diagnosis) still working
+        // holds its file open and would write rows after the delete.
+        let running: i64 =
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE run_id = ? AND state = 'running'")
+                .bind(id)
+                .fetch_one(&mut *tx)
+                .await?;
+        if running > 0 {
+            return Ok(RunDeletion::JobBusy(JobState::Running));
+        }
+        for sql in [
+            "DELETE FROM result_documents WHERE run_id = ?",
+            "DELETE FROM results WHERE run_id = ?",
+            "DELETE FROM diagnoses WHERE run_id = ?",
+            "DELETE FROM jobs WHERE run_id = ?",
+            "DELETE FROM runs WHERE id = ?",
+        ] {
+            sqlx::query(sql).bind(id).execute(&mut *tx).await?;
+        }
+        tx.commit().await?;
+        Ok(RunDeletion::Deleted { blob_path })
+    }
+}
+
+/// The unit (if new) and the run's row, inside the caller's write
+/// transaction; a run's time is its recording time, else its upload time.
+pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Result<(), StoreError> {
+    sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
+        .bind(&new.unit_serial)
+        .bind(new.uploaded_at)
+        .execute(&mut **tx)
+        .await?;
+    sqlx::query(
+        "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
+                           metadata, recorded_at, run_time, uploaded_at, uploaded_by)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+    )
+    .bind(&new.run_id)
+    .bind(&new.unit_serial)
+    .bind(&new.sha256)
+    .bind(new.size_bytes)
+    .bind(new.records)
+    .bind(&new.format)
+    .bind(new.gzip)
+    .bind(&new.blob_path)
+    .bind(&new.metadata)
+    .bind(new.recorded_at)
+    .bind(new.recorded_at.unwrap_or(new.uploaded_at))
+    .bind(new.uploaded_at)
+    .bind(&new.uploaded_by)
+    .execute(&mut **tx)
+    .await?;
+    Ok(())
+}
