@@ -40,7 +40,11 @@ fn check(req: &DesignRequest) {
     for (name, p) in &d.parameters {
         let filter = planned.parameters[name].sigma;
         let rel = p.sigma / filter - 1.0;
-        assert!(rel.abs() < 0.05, "{name}: design σ {} vs plan {filter}", p.sigma);
+        assert!(
+            rel.abs() < 0.05,
+            "{name}: design σ {} vs plan {filter}",
+            p.sigma
+        );
     }
     for c in &d.comparisons {
         if let Some(t) = c.duration_s {

@@ -72,7 +72,8 @@ impl DesignBody {
                 )))
             }
             Some(TargetSpec::Accuracies(map)) => {
-                let text = serde_json::to_vec(&map).map_err(|e| ApiError::Internal(e.to_string()))?;
+                let text =
+                    serde_json::to_vec(&map).map_err(|e| ApiError::Internal(e.to_string()))?;
                 Target::from_json("request", &text)
                     .map_err(|e| ApiError::Unprocessable(e.to_string()))?
             }
@@ -133,8 +134,8 @@ async fn design_scheme(
         let _permit = permit;
         design(&req)
     })
-        .await
-        .map_err(|e| ApiError::Internal(format!("design task: {e}")))?;
+    .await
+    .map_err(|e| ApiError::Internal(format!("design task: {e}")))?;
     match designed {
         Ok(d) => Ok(Json(d)),
         Err(DesignError::Invalid(msg)) => Err(ApiError::Unprocessable(msg)),

@@ -27,12 +27,13 @@
 //! a turn carry no update (the pre-scan's guard), and a still stretch
 //! shorter than the pre-scan's shortest dwell is not a dwell.
 
-use nalgebra::{Matrix3, Matrix6, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
 use crate::calib::filter::{error_dynamics, SystematicFilter};
+use crate::calib::priors::{initial_navigation_covariance, prior_sigma};
 use crate::calib::sensitivity::base_columns;
 use crate::calib::CalibError;
-use crate::model::{Group, PARAMETERS};
+use crate::model::PARAMETERS;
 use crate::nav::attitude::rotvec_to_dcm;
 use crate::nav::Site;
 use crate::sim::trajectory::{Kinematics, Motion, Trajectory};
@@ -48,8 +49,9 @@ pub struct ObjectiveSettings {
     pub vrw: f64,
     /// σ of a zero-velocity observation, m/s.
     pub zupt_sigma_mps: f64,
-    /// Prior 1-σ of each parameter, SI, in `PARAMETERS` order.
-    pub prior_sigma: Vec<f64>,
+    /// Prior 1-σ of each parameter family as a multiple of the seed
+    /// paper's magnitude (the estimator's `prior_scale`).
+    pub prior_scale: f64,
     /// The unit's start attitude: rotation vector in n, degrees.
     pub initial_attitude_deg: [f64; 3],
     /// Longest filter window at rest, s.
@@ -97,28 +99,6 @@ const TURN_WINDOW_S: f64 = 1.0;
 /// Rest at each end of a dwell stepped in the estimator's own windows.
 const FINE_REST_S: f64 = 10.0;
 
-/// The navigation covariance the filter starts from: the attitude the
-/// residual biases leave after alignment (tilt ≈ δb_a/g, heading ≈
-/// δb_g,E/ω_ie,N), three priors wide, and a unit at rest.
-pub fn start_covariance(site: &Site, prior_sigma: &[f64]) -> Matrix6<f64> {
-    let accel_bias = prior_sigma[first_of(Group::AccelBias)];
-    let gyro_bias = prior_sigma[first_of(Group::GyroBias)];
-    let tilt = 3.0 * accel_bias / site.gravity();
-    let heading = (3.0 * gyro_bias / site.omega_ie_n().y).min(0.1);
-    let mut p0 = Matrix6::zeros();
-    for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
-        p0[(i, i)] = s * s;
-    }
-    p0
-}
-
-fn first_of(group: Group) -> usize {
-    PARAMETERS
-        .iter()
-        .position(|p| p.group == group)
-        .expect("every family has parameters")
-}
-
 /// Adds the parameter columns of a motion sampled at `kin` over a step of
 /// `h` seconds whose midpoint is `tau` into the window.
 fn add_step(kf: &mut SystematicFilter, kin: &Kinematics, h: f64, tau: f64) {
@@ -161,8 +141,8 @@ pub fn scheme_information(
     let traj = Trajectory::new(scheme, &c_b_n0, &s.site).map_err(CalibError::Unusable)?;
     let mut kf = SystematicFilter::new(
         error_dynamics(&s.site.omega_ie_n(), &s.site.f_rest_n()),
-        &start_covariance(&s.site, &s.prior_sigma),
-        &s.prior_sigma,
+        &initial_navigation_covariance(&s.site, s.prior_scale),
+        &prior_sigma(s.prior_scale),
         s.arw,
         s.vrw,
         s.zupt_sigma_mps,
@@ -201,9 +181,7 @@ pub fn scheme_information(
                     rest_without_updates(&mut kf, &kin, tail);
                 }
             }
-            Motion::Rotate { profile, .. } => {
-                turn(&mut kf, &traj, k, profile.angle.abs())
-            }
+            Motion::Rotate { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
             Motion::Flip { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
         }
         let now = information_nats(&kf)?;

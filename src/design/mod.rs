@@ -27,7 +27,7 @@ use crate::nav::Site;
 use crate::sim::scheme::{Frame, DEFAULT_DWELL_S};
 use crate::sim::{HandTurns, Scheme};
 use information::{Information, ObjectiveSettings};
-use search::{SearchSpace, Scorer};
+use search::{Scorer, SearchSpace};
 pub use target::{Target, TargetError};
 
 /// Which axes the table can turn the unit about.
@@ -146,7 +146,7 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
         arw: req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H,
         vrw: req.noise.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
         zupt_sigma_mps: opts.zupt_sigma_mps,
-        prior_sigma: crate::calib::estimate::prior_sigma(opts.prior_scale),
+        prior_scale: opts.prior_scale,
         initial_attitude_deg: req.initial_attitude_deg,
         dwell_window_s: 10.0,
         guard_s: opts.detect.guard_s,
@@ -159,7 +159,9 @@ fn validate(req: &DesignRequest) -> Result<(), DesignError> {
         if v.is_finite() && v > 0.0 {
             Ok(())
         } else {
-            Err(DesignError::Invalid(format!("{name} must be positive, got {v}")))
+            Err(DesignError::Invalid(format!(
+                "{name} must be positive, got {v}"
+            )))
         }
     };
     positive("the gyro ARW", req.noise.gyro_arw_deg_rt_h)?;
@@ -255,14 +257,7 @@ pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
         .iter()
         .map(|name| compare(name, &scorer))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(report(
-        scheme,
-        &info,
-        &target,
-        req,
-        &scorer,
-        comparisons,
-    ))
+    Ok(report(scheme, &info, &target, req, &scorer, comparisons))
 }
 
 /// A built-in scheme on the same goal: the uniform dwell it needs.

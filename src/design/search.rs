@@ -111,9 +111,7 @@ impl Scorer<'_> {
 
 /// The scheme of `turns` with the given dwells (one more than turns).
 pub fn build(name: &str, turns: &[Turn], dwells: &[f64], space: &SearchSpace) -> Scheme {
-    let mut steps = vec![Step::Dwell {
-        dwell_s: dwells[0],
-    }];
+    let mut steps = vec![Step::Dwell { dwell_s: dwells[0] }];
     for (t, d) in turns.iter().zip(&dwells[1..]) {
         steps.push(Step::Rotate {
             rotate: Rotate {
