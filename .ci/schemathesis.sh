@@ -12,7 +12,7 @@ ST="$(python3 -c 'import sysconfig; print(sysconfig.get_path("scripts"))')/st"
 cargo build --quiet --bin sinscal
 DATA="$(mktemp -d)"
 OUT="$DATA/stdout.txt"
-./target/debug/sinscal serve --data-dir "$DATA" --bind 127.0.0.1:0 --workers 1 >"$OUT" 2>"$DATA/server.log" &
+./target/debug/sinscal serve --data-dir "$DATA" --bind 127.0.0.1:0 --workers 1 --design-time-limit-secs 5 >"$OUT" 2>"$DATA/server.log" &
 PID=$!
 trap 'kill "$PID" 2>/dev/null || true; wait "$PID" 2>/dev/null || true; rm -rf "$DATA"' EXIT
 for _ in $(seq 100); do

@@ -40,6 +40,8 @@ pub mod defaults {
     pub const MAX_COMMENT_LINES: u64 = 10_000;
     pub const MAX_EXPANSION_RATIO: u64 = 200;
     pub const MIN_FREE_BYTES: u64 = 256 << 20;
+    /// A Table 1 design at navigation-grade noise takes 15–30 s here.
+    pub const DESIGN_TIME_LIMIT_SECS: f64 = 60.0;
     /// Not flags: the pause before a failed job is retried, and the
     /// concurrency limits of the HTTP layer.
     pub const RETRY_BACKOFF_SECS: u64 = 2;
@@ -128,6 +130,10 @@ pub struct ServeArgs {
     /// are answered 507 and /readyz 503.
     #[arg(long, env = "SINSCAL_MIN_FREE_BYTES", default_value_t = defaults::MIN_FREE_BYTES)]
     pub min_free_bytes: u64,
+    /// Wall time one scheme design over HTTP may take, seconds.
+    #[arg(long, env = "SINSCAL_DESIGN_TIME_LIMIT_SECS",
+          default_value_t = defaults::DESIGN_TIME_LIMIT_SECS)]
+    pub design_time_limit_secs: f64,
     /// JSON object of repeatability tolerances by parameter name
     /// (canonical units), replacing the defaults it names.
     #[arg(long, env = "SINSCAL_TOLERANCES")]
@@ -175,6 +181,8 @@ pub struct Config {
     pub estimate: EstimateOptions,
     /// Queue a diagnose job when a calibration's model check fails.
     pub diagnose_inadequate: bool,
+    /// Wall time one scheme design over HTTP may take.
+    pub design_time_limit: Duration,
 }
 
 /// Default repeatability tolerances (1-σ over runs, and largest change
@@ -239,6 +247,7 @@ impl Config {
             tolerances: default_tolerances(),
             estimate: EstimateOptions::default(),
             diagnose_inadequate: defaults::DIAGNOSE_INADEQUATE,
+            design_time_limit: Duration::from_secs_f64(defaults::DESIGN_TIME_LIMIT_SECS),
         }
     }
 
@@ -274,6 +283,8 @@ impl Config {
         }
         c.max_expansion_ratio = a.max_expansion_ratio;
         c.min_free_bytes = a.min_free_bytes;
+        c.design_time_limit =
+            seconds_flag("design-time-limit-secs", a.design_time_limit_secs, 1.0)?;
         if let Some(path) = &a.tolerances {
             let text = std::fs::read(path).map_err(|source| ConfigError::Read {
                 path: path.display().to_string(),

@@ -448,6 +448,7 @@ fn run_design(a: DesignArgs) -> anyhow::Result<()> {
             ..Site::REFERENCE
         },
         initial_attitude_deg: a.attitude_error.unwrap_or([0.0; 3]),
+        time_limit_s: None,
     };
     let d = design(&req)?;
     print!("{}", d.summary());

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{problem, spawn_app};
+use common::{problem, spawn_app, spawn_app_with};
 use reqwest::StatusCode;
 use serde_json::{json, Value};
 
@@ -58,5 +58,30 @@ async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
     // The scheme is a SPEC §4 scheme the simulator accepts.
     let scheme: sinscal::sim::Scheme = serde_json::from_value(d["scheme"].clone()).unwrap();
     scheme.validate().unwrap();
+    app.stop().await;
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_design_beyond_the_time_limit_is_refused_with_the_limit() {
+    let app = spawn_app_with(0, |c| {
+        c.design_time_limit = std::time::Duration::from_secs(1)
+    })
+    .await;
+    let engineer = app.create_token("engineer").await;
+    // Table 1 at navigation-grade noise scores thousands of schemes.
+    let r = app
+        .http
+        .post(app.url("/schemes/design"))
+        .bearer_auth(&engineer)
+        .json(&json!({"target": "table1"}))
+        .send()
+        .await
+        .unwrap();
+    let (status, p) = problem(r).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(
+        p["detail"].as_str().unwrap().contains("time limit of 1 s"),
+        "{p}"
+    );
     app.stop().await;
 }

@@ -4,11 +4,14 @@
 //! A design scores a few thousand schemes (tens of CPU seconds), so it runs
 //! on the blocking pool, one at a time: a second request while one runs is
 //! answered 503 with Retry-After rather than queued behind it, so that
-//! designs never take the calibration workers' cores two at a time.
+//! designs never take the calibration workers' cores two at a time. Each
+//! has the server's time limit (`--design-time-limit-secs`); the command
+//! line has none.
 
 use std::collections::BTreeMap;
 
 use axum::extract::rejection::JsonRejection;
+use axum::extract::State;
 use axum::routing::post;
 use axum::{Json, Router};
 use serde::Deserialize;
@@ -60,7 +63,7 @@ struct DesignBody {
 }
 
 impl DesignBody {
-    fn request(self) -> Result<DesignRequest, ApiError> {
+    fn request(self, time_limit_s: f64) -> Result<DesignRequest, ApiError> {
         let defaults = DesignRequest::default();
         let target = match self.target {
             None => Target::table1(),
@@ -113,17 +116,19 @@ impl DesignBody {
             initial_attitude_deg: self
                 .attitude_error_deg
                 .unwrap_or(defaults.initial_attitude_deg),
+            time_limit_s: Some(time_limit_s),
         })
     }
 }
 
 async fn design_scheme(
+    State(st): State<AppState>,
     auth: Auth,
     body: Result<Json<DesignBody>, JsonRejection>,
 ) -> Result<Json<Design>, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let Json(body) = body.map_err(|e| ApiError::Unprocessable(e.body_text()))?;
-    let req = body.request()?;
+    let Json(body) = body?;
+    let req = body.request(st.config.design_time_limit.as_secs_f64())?;
     let permit = DESIGNING.try_acquire().map_err(|_| ApiError::Unavailable {
         detail: "a scheme design is running; retry when it has finished".into(),
         retry_after_s: BUSY_RETRY_AFTER_S,
@@ -139,6 +144,8 @@ async fn design_scheme(
     match designed {
         Ok(d) => Ok(Json(d)),
         Err(DesignError::Invalid(msg)) => Err(ApiError::Unprocessable(msg)),
-        Err(e @ DesignError::Calib(_)) => Err(ApiError::Unprocessable(e.to_string())),
+        Err(e @ (DesignError::TimeLimit(_) | DesignError::Calib(_))) => {
+            Err(ApiError::Unprocessable(e.to_string()))
+        }
     }
 }

@@ -47,6 +47,11 @@ pub enum Axes {
 pub enum DesignError {
     #[error("design: {0}")]
     Invalid(String),
+    #[error(
+        "the design did not finish within its time limit of {0:.0} s: loosen the target \
+         or the margin, or run `sinscal design`, which has no limit"
+    )]
+    TimeLimit(f64),
     #[error(transparent)]
     Calib(#[from] CalibError),
 }
@@ -74,6 +79,8 @@ pub struct DesignRequest {
     pub site: Site,
     /// The unit's start attitude, rotation vector in n, degrees.
     pub initial_attitude_deg: [f64; 3],
+    /// Most wall time the search may take, s; `None`: no limit.
+    pub time_limit_s: Option<f64>,
 }
 
 impl Default for DesignRequest {
@@ -94,6 +101,7 @@ impl Default for DesignRequest {
             seed: 1,
             site: Site::REFERENCE,
             initial_attitude_deg: [0.0; 3],
+            time_limit_s: None,
         }
     }
 }
@@ -154,28 +162,56 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
     }
 }
 
-fn validate(req: &DesignRequest) -> Result<(), DesignError> {
-    let positive = |name: &str, v: f64| {
-        if v.is_finite() && v > 0.0 {
+fn validate(req: &DesignRequest, target: &Target) -> Result<(), DesignError> {
+    // Ranges wide enough for any real unit and table, narrow enough that
+    // one scheme's score stays a few milliseconds (a turn at 1e-9 °/s²
+    // would last for ages).
+    let within = |name: &str, v: f64, lo: f64, hi: f64| {
+        if v.is_finite() && (lo..=hi).contains(&v) {
             Ok(())
         } else {
             Err(DesignError::Invalid(format!(
-                "{name} must be positive, got {v}"
+                "{name} must be within {lo} to {hi}, got {v}"
             )))
         }
     };
-    positive("the gyro ARW", req.noise.gyro_arw_deg_rt_h)?;
-    positive("the accelerometer VRW", req.noise.accel_vrw_ug_rt_hz)?;
-    positive("the turn rate", req.rate_dps)?;
-    positive("the turn acceleration", req.accel_dps2)?;
-    positive("the margin", req.margin)?;
+    within(
+        "the gyro ARW (deg/√h)",
+        req.noise.gyro_arw_deg_rt_h,
+        1e-6,
+        1.0,
+    )?;
+    within(
+        "the accelerometer VRW (µg/√Hz)",
+        req.noise.accel_vrw_ug_rt_hz,
+        0.01,
+        1e4,
+    )?;
+    within("the turn rate (deg/s)", req.rate_dps, 0.5, 1000.0)?;
+    within("the turn acceleration (deg/s²)", req.accel_dps2, 0.5, 1e4)?;
+    within("the margin", req.margin, 0.5, 100.0)?;
+    if let Some(t) = req.time_limit_s {
+        within("the time limit (s)", t, 0.1, 86_400.0)?;
+    }
+    if let Some(t) = req.max_duration_s {
+        within("the longest run (s)", t, 1.0, 1e6)?;
+    }
     let min_dwell = EstimateOptions::default().detect.min_dwell_s;
-    if !(req.min_dwell_s.is_finite() && req.min_dwell_s >= min_dwell) {
+    if !(req.min_dwell_s.is_finite() && (min_dwell..=3600.0).contains(&req.min_dwell_s)) {
         return Err(DesignError::Invalid(format!(
-            "the shortest dwell must be at least {min_dwell} s (what the estimator takes for \
-             a dwell), got {}",
+            "the shortest dwell must be {min_dwell} s (what the estimator takes for a dwell) \
+             to 3600 s, got {}",
             req.min_dwell_s
         )));
+    }
+    for (p, a) in PARAMETERS.iter().zip(&target.accuracy) {
+        let goal = a * p.si_per_unit / req.margin;
+        if !(goal.is_normal() && goal > 0.0) {
+            return Err(DesignError::Invalid(format!(
+                "the target for {} ({a} {}) is not a usable positive number",
+                p.name, p.unit
+            )));
+        }
     }
     req.site.validate().map_err(DesignError::Invalid)?;
     Ok(())
@@ -183,7 +219,16 @@ fn validate(req: &DesignRequest) -> Result<(), DesignError> {
 
 /// Designs the shortest scheme for `req`.
 pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
-    validate(req)?;
+    validate(req, req.target.as_ref().unwrap_or(&Target::table1()))?;
+    match designed(req) {
+        Err(DesignError::Calib(CalibError::Cancelled)) => {
+            Err(DesignError::TimeLimit(req.time_limit_s.unwrap_or(0.0)))
+        }
+        other => other,
+    }
+}
+
+fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
     let target = req.target.clone().unwrap_or_else(Target::table1);
     let settings = objective_settings(req);
     let hand = HandTurns::default();
@@ -204,6 +249,9 @@ pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
             .collect(),
         realise: &realise,
         evaluations: std::cell::Cell::new(0),
+        deadline: req
+            .time_limit_s
+            .map(|s| std::time::Instant::now() + std::time::Duration::from_secs_f64(s)),
     };
     let frames: &[Frame] = match req.axes {
         Axes::Body => &[Frame::Body],

@@ -76,10 +76,19 @@ pub struct Scorer<'a> {
     pub realise: &'a dyn Fn(&Scheme) -> Result<Scheme, String>,
     /// Schemes scored so far.
     pub evaluations: std::cell::Cell<usize>,
+    /// When the search must give up (a server bounds what one request
+    /// may cost); `None` searches to the end.
+    pub deadline: Option<std::time::Instant>,
 }
 
 impl Scorer<'_> {
     pub fn information(&self, scheme: &Scheme) -> Result<Information, CalibError> {
+        if self
+            .deadline
+            .is_some_and(|d| std::time::Instant::now() >= d)
+        {
+            return Err(CalibError::Cancelled);
+        }
         self.evaluations.set(self.evaluations.get() + 1);
         let run = (self.realise)(scheme).map_err(CalibError::Unusable)?;
         scheme_information(&run, self.settings)
