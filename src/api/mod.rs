@@ -45,6 +45,8 @@ pub struct AppState {
     pub wake: Arc<Notify>,
     /// Bounds concurrent uploads (each holds a blocking thread and a file).
     pub uploads: Arc<Semaphore>,
+    /// One scheme design at a time (each takes tens of CPU seconds).
+    pub designs: Arc<Semaphore>,
     /// Set at shutdown: uploads are refused, readiness fails.
     pub stopping: Arc<AtomicBool>,
 }

@@ -15,7 +15,6 @@ use axum::extract::State;
 use axum::routing::post;
 use axum::{Json, Router};
 use serde::Deserialize;
-use tokio::sync::Semaphore;
 
 use super::auth::{roles, Auth};
 use super::error::ApiError;
@@ -24,8 +23,6 @@ use crate::calib::NoiseDensity;
 use crate::design::{design, Axes, Design, DesignError, DesignRequest, Target};
 use crate::nav::Site;
 
-/// One design at a time.
-static DESIGNING: Semaphore = Semaphore::const_new(1);
 /// What a refused request is told to wait, s.
 const BUSY_RETRY_AFTER_S: u64 = 30;
 
@@ -129,10 +126,14 @@ async fn design_scheme(
     auth.require(roles::ENGINEER)?;
     let Json(body) = body?;
     let req = body.request(st.config.design_time_limit.as_secs_f64())?;
-    let permit = DESIGNING.try_acquire().map_err(|_| ApiError::Unavailable {
-        detail: "a scheme design is running; retry when it has finished".into(),
-        retry_after_s: BUSY_RETRY_AFTER_S,
-    })?;
+    let permit = st
+        .designs
+        .clone()
+        .try_acquire_owned()
+        .map_err(|_| ApiError::Unavailable {
+            detail: "a scheme design is running; retry when it has finished".into(),
+            retry_after_s: BUSY_RETRY_AFTER_S,
+        })?;
     // The permit goes with the computation: a client that hangs up does
     // not free the slot while its design still runs.
     let designed = tokio::task::spawn_blocking(move || {

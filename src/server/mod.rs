@@ -105,6 +105,7 @@ impl Application {
         let state = AppState {
             store,
             uploads: Arc::new(Semaphore::new(config.max_concurrent_uploads)),
+            designs: Arc::new(Semaphore::new(1)),
             config: Arc::new(config),
             metrics,
             wake: Arc::new(Notify::new()),
