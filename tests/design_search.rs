@@ -78,6 +78,13 @@ fn impossible_requests_are_refused_with_a_reason() {
     };
     let e = design(&req).unwrap_err().to_string();
     assert!(e.contains("shortest dwell"), "{e}");
+    // Table 1 / 50 at tactical noise: the gyro biases would need weeks.
+    let req = DesignRequest {
+        target: Some(Target::table1().tightened(50.0)),
+        ..tactical()
+    };
+    let e = design(&req).unwrap_err().to_string();
+    assert!(e.contains("gyro_bias"), "{e}");
     let req = DesignRequest {
         max_duration_s: Some(600.0),
         ..tactical()

@@ -273,8 +273,11 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
     let Some(first) = first else {
         return Err(DesignError::Invalid(format!(
             "no sequence of up to {} turns with dwells up to {} s reaches the target at \
-             margin {}",
-            space.max_turns, space.max_dwell_s, req.margin
+             margin {}; {}",
+            space.max_turns,
+            space.max_dwell_s,
+            req.margin,
+            out_of_reach(&scorer, space.max_dwell_s)?
         )));
     };
     let probe = first.dwells[0];
@@ -306,6 +309,37 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
         .map(|name| compare(name, &scorer))
         .collect::<Result<Vec<_>, _>>()?;
     Ok(report(scheme, &info, &target, req, &scorer, comparisons))
+}
+
+/// What stands in the way of an impossible target: the parameters the
+/// 19-position reference scheme still leaves above their goal with dwells
+/// of `dwell_s`, worst first.
+fn out_of_reach(scorer: &Scorer, dwell_s: f64) -> Result<String, DesignError> {
+    let reference = Scheme::builtin("ten-position-9+9", dwell_s).expect("a built-in scheme");
+    let info = scorer.information(&reference)?;
+    let mut over: Vec<(f64, &str)> = scorer
+        .ratios(&info)
+        .into_iter()
+        .zip(PARAMETERS.iter())
+        .filter(|(r, _)| *r > 1.0)
+        .map(|(r, p)| (r, p.name))
+        .collect();
+    over.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let listed: Vec<String> = over
+        .iter()
+        .take(6)
+        .map(|(r, name)| format!("{name} {r:.1}×"))
+        .collect();
+    Ok(format!(
+        "ten-position-9+9 with {dwell_s:.0} s dwells ({:.1} h) still leaves its σ above the \
+         goal for {}",
+        info.duration_s / 3600.0,
+        if listed.is_empty() {
+            "no parameter (the sequences searched are shorter)".to_string()
+        } else {
+            listed.join(", ")
+        }
+    ))
 }
 
 /// A built-in scheme on the same goal: the uniform dwell it needs.
