@@ -29,10 +29,9 @@
 //! dwells found and the passes taken.
 
 use rand::SeedableRng;
-use std::sync::atomic::AtomicBool;
 
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, EstimateOptions, NoiseDensity, RunInfo};
+use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::{EstimateOptions, NoiseDensity};
 use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
@@ -181,10 +180,6 @@ fn main() {
             initial_attitude_error_deg: start,
             seed,
         };
-        let run = RunInfo {
-            site,
-            sample_rate_hz: rate,
-        };
         let opts = EstimateOptions {
             noise: known_noise.then_some(NoiseDensity {
                 gyro_arw_deg_rt_h: noise.gyro_arw_deg_rt_h,
@@ -192,14 +187,7 @@ fn main() {
             }),
             ..base.clone()
         };
-        let res = estimate(
-            &SimSource(cfg),
-            &run,
-            &opts,
-            &mut |_| {},
-            &AtomicBool::new(false),
-        )
-        .unwrap();
+        let res = calibrate_simulated(&cfg, &opts).unwrap();
         let mut seed_z2 = [0.0; 7];
         let mut run_worst = 0.0f64;
         for (i, p) in PARAMETERS.iter().enumerate() {

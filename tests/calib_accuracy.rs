@@ -4,21 +4,13 @@
 //! `ten-position-9+9` with 600 s dwells, 100 Hz, ARW 0.0003 deg/√h,
 //! VRW 5 µg/√Hz. Bounds are the paper's Table 1 accuracies.
 
-use std::sync::atomic::AtomicBool;
-
 use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{
-    estimate, CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo,
-};
+use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::{CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity};
 use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
-
-fn site() -> Site {
-    Site::new(28.2215, 112.9924, 50.0)
-}
 
 fn config(
     scheme: &str,
@@ -29,7 +21,7 @@ fn config(
     seed: u64,
 ) -> SimConfig {
     SimConfig {
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: rate,
         scheme: Scheme::builtin(scheme, dwell).unwrap(),
         params,
@@ -41,18 +33,7 @@ fn config(
 }
 
 fn calibrate(cfg: &SimConfig, opts: &EstimateOptions) -> CalibrationResult {
-    let run = RunInfo {
-        site: cfg.site,
-        sample_rate_hz: cfg.sample_rate_hz,
-    };
-    estimate(
-        &SimSource(cfg.clone()),
-        &run,
-        opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap()
+    calibrate_simulated(cfg, opts).unwrap()
 }
 
 /// err/σ of every parameter, canonical order.
@@ -265,7 +246,7 @@ fn sigma_is_honest_over_twenty_seeds() {
 fn plan_agrees_with_independent_covariance_analysis() {
     let input = PlanInput {
         scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: 100.0,
         noise: NoiseDensity {
             gyro_arw_deg_rt_h: 0.0003,

@@ -8,26 +8,20 @@
 //! navigation-grade noise); the full-size figures come from
 //! `cargo bench --bench accuracy -- --raw`.
 
-use std::sync::atomic::AtomicBool;
-
 use rand::SeedableRng;
 use sinscal::calib::segment::{SegmentKind, Segmenter};
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, CalibError, CalibrationResult, DetectOptions, EstimateOptions};
-use sinscal::calib::{RunInfo, RunSegment};
+use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::RunSegment;
+use sinscal::calib::{CalibError, CalibrationResult, DetectOptions, EstimateOptions};
 use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::trajectory::Motion;
 use sinscal::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
 
-fn site() -> Site {
-    Site::new(28.2215, 112.9924, 50.0)
-}
-
 fn config(params: ErrorParameters, attitude: [f64; 3], seed: u64) -> SimConfig {
     SimConfig {
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: 20.0,
         scheme: Scheme::builtin("ten-position-9+9", 300.0).unwrap(),
         params,
@@ -38,25 +32,12 @@ fn config(params: ErrorParameters, attitude: [f64; 3], seed: u64) -> SimConfig {
     }
 }
 
-fn run_info(cfg: &SimConfig) -> RunInfo {
-    RunInfo {
-        site: cfg.site,
-        sample_rate_hz: cfg.sample_rate_hz,
-    }
-}
-
 fn calibrate(cfg: &SimConfig) -> Result<CalibrationResult, CalibError> {
     let opts = EstimateOptions {
         cross_check: false,
         ..EstimateOptions::default()
     };
-    estimate(
-        &SimSource(cfg.clone()),
-        &run_info(cfg),
-        &opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
+    calibrate_simulated(cfg, &opts)
 }
 
 /// Each parameter `factor` times its paper magnitude, signed by `signs`

@@ -9,8 +9,8 @@
 use std::sync::atomic::AtomicBool;
 
 use rand::SeedableRng;
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, EstimateOptions, RunInfo};
+use sinscal::calib::sources::{calibrate_simulated, SimSource};
+use sinscal::calib::{EstimateOptions, RunInfo};
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
@@ -28,14 +28,10 @@ fn tactical_noise(seed: u64) -> Noise {
 
 #[test]
 fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
-    let site = Site::new(28.2215, 112.9924, 50.0);
+    let site = Site::REFERENCE;
     let opts = EstimateOptions {
         cross_check: false,
         ..EstimateOptions::default()
-    };
-    let run = RunInfo {
-        site,
-        sample_rate_hz: 20.0,
     };
     let mut sum_sq = [0.0; Group::ALL.len()];
     let mut count = [0usize; Group::ALL.len()];
@@ -57,14 +53,7 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
             ],
             seed,
         };
-        let res = estimate(
-            &SimSource(cfg),
-            &run,
-            &opts,
-            &mut |_| {},
-            &AtomicBool::new(false),
-        )
-        .unwrap();
+        let res = calibrate_simulated(&cfg, &opts).unwrap();
         for (i, p) in PARAMETERS.iter().enumerate() {
             let e = &res.parameters[p.name];
             let z = (e.value - truth.canonical(i)) / e.sigma;
@@ -87,7 +76,7 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
 #[test]
 fn measured_noise_is_the_simulated_noise_when_turns_start_between_blocks() {
     use sinscal::calib::prescan::prescan;
-    let site = Site::new(28.2215, 112.9924, 50.0);
+    let site = Site::REFERENCE;
     let run = RunInfo {
         site,
         sample_rate_hz: 20.0,

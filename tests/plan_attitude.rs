@@ -7,13 +7,11 @@
 
 mod diagnosis_support;
 
-use std::sync::atomic::AtomicBool;
-
 use diagnosis_support::nav_turns;
 use nalgebra::Vector3;
 use sinscal::calib::plan::{plan, Plan, PlanInput};
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, EstimateOptions, NoiseDensity, RunInfo};
+use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::{EstimateOptions, NoiseDensity};
 use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::attitude::{dcm_to_rotvec, rotvec_to_dcm};
 use sinscal::nav::Site;
@@ -45,7 +43,7 @@ fn planned(scheme: &Scheme, site: Site, attitude: [f64; 3]) -> Plan {
 
 #[test]
 fn plan_for_a_tilted_turned_start_matches_the_filter_on_nav_axis_turns() {
-    let site = Site::new(28.2215, 112.9924, 50.0);
+    let site = Site::REFERENCE;
     let scheme = nav_turns(300.0);
     let attitude = start(5.0, 200.0);
     let with_start = planned(&scheme, site, attitude);
@@ -54,10 +52,6 @@ fn plan_for_a_tilted_turned_start_matches_the_filter_on_nav_axis_turns() {
     let opts = EstimateOptions {
         cross_check: false,
         ..EstimateOptions::default()
-    };
-    let run = RunInfo {
-        site,
-        sample_rate_hz: RATE_HZ,
     };
     // The level, north-facing plan is wrong for this start somewhere by
     // more than 10 %: the start attitude is worth knowing.
@@ -74,14 +68,7 @@ fn plan_for_a_tilted_turned_start_matches_the_filter_on_nav_axis_turns() {
             initial_attitude_error_deg: attitude,
             seed,
         };
-        let res = estimate(
-            &SimSource(cfg),
-            &run,
-            &opts,
-            &mut |_| {},
-            &AtomicBool::new(false),
-        )
-        .unwrap();
+        let res = calibrate_simulated(&cfg, &opts).unwrap();
         for p in PARAMETERS.iter() {
             let sigma = res.parameters[p.name].sigma;
             let ratio = sigma / with_start.parameters[p.name].sigma;

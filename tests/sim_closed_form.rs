@@ -15,10 +15,6 @@ use sinscal::Record;
 const DEG: f64 = std::f64::consts::PI / 180.0;
 const RATE_HZ: f64 = 100.0;
 
-fn site() -> Site {
-    Site::new(28.2215, 112.9924, 50.0)
-}
-
 /// Dwell `lead` s, turn `angle_deg` about body `axis` at 10°/s, 20°/s²,
 /// dwell 1 s.
 fn one_turn(axis: Axis, angle_deg: f64, lead: f64) -> Scheme {
@@ -42,7 +38,7 @@ fn one_turn(axis: Axis, angle_deg: f64, lead: f64) -> Scheme {
 
 fn config(scheme: Scheme, params: ErrorParameters, effects: Effects) -> SimConfig {
     SimConfig {
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: RATE_HZ,
         scheme,
         params,
@@ -59,7 +55,7 @@ fn records(cfg: &SimConfig) -> Vec<Record> {
 
 /// Earth rate components (north, up) at the site.
 fn earth() -> (f64, f64) {
-    let l = site().latitude_rad();
+    let l = Site::REFERENCE.latitude_rad();
     (OMEGA_IE * l.cos(), OMEGA_IE * l.sin())
 }
 
@@ -74,7 +70,7 @@ fn turn_about_y_matches_closed_form_with_paper_errors() {
     let p = ErrorParameters::paper();
     let recs = records(&config(one_turn(Axis::Y, 90.0, 1.0), p, Effects::none()));
     let (w_n, w_u) = earth();
-    let g = site().gravity();
+    let g = Site::REFERENCE.gravity();
     let om = 10.0 * DEG;
     let dt = 1.0 / RATE_HZ;
     let mut checked = 0;
@@ -113,7 +109,7 @@ fn dwell_records_are_the_resting_values() {
         Effects::none(),
     ));
     let (w_n, w_u) = earth();
-    let g = site().gravity();
+    let g = Site::REFERENCE.gravity();
     let dt = 0.01;
     let first = recs[0];
     assert!((first.t - 0.01).abs() < 1e-15);
@@ -195,7 +191,7 @@ fn g_sensitivity_adds_g_times_column_at_rest() {
         gyro_g_sensitivity: Some(gs),
         ..Effects::none()
     };
-    let g = site().gravity();
+    let g = Site::REFERENCE.gravity();
     let deltas = effect_delta(one_turn(Axis::Z, 90.0, 1.0), effects);
     // Nominal attitude, f^b = [0, 0, g]: the record gains G[:, z]·g·Δt.
     for (t, dth, dv) in deltas.iter().filter(|d| d.0 < 1.0 + 1e-9) {
@@ -216,7 +212,7 @@ fn accel_delay_shifts_the_accelerometer_interval() {
     };
     let scheme = one_turn(Axis::Y, 90.0, 1.0);
     let with = records(&config(scheme, ErrorParameters::zero(), effects));
-    let g = site().gravity();
+    let g = Site::REFERENCE.gravity();
     let om = 10.0 * DEG;
     let tau = tau_ms * 1e-3;
     let dt = 0.01;

@@ -5,11 +5,10 @@
 
 use std::f64::consts::{PI, TAU};
 use std::process::Command;
-use std::sync::atomic::AtomicBool;
 
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, EstimateOptions, RunInfo};
+use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::EstimateOptions;
 use sinscal::io::data::{DataFormat, RecordReader};
 use sinscal::io::meta::{read_json, Truth};
 use sinscal::model::params::paper_accuracy;
@@ -22,13 +21,9 @@ use sinscal::sim::scheme::{Flip, Step};
 use sinscal::sim::trajectory::Motion;
 use sinscal::sim::{simulate, HandTurns, Noise, Scheme, SchemeRef, SimConfig};
 
-fn site() -> Site {
-    Site::new(28.2215, 112.9924, 50.0)
-}
-
 fn config(scheme: Scheme, rate_hz: f64, params: ErrorParameters, noise: Noise) -> SimConfig {
     SimConfig {
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: rate_hz,
         scheme,
         params,
@@ -97,11 +92,11 @@ impl Reference {
                 Step::Rotate { .. } => panic!("the reference knows flips only"),
             }
         }
-        let lat = site().latitude_rad();
+        let lat = Site::REFERENCE.latitude_rad();
         Reference {
             pieces,
             omega_ie_n: Vector3::new(0.0, OMEGA_IE * lat.cos(), OMEGA_IE * lat.sin()),
-            g: site().gravity(),
+            g: Site::REFERENCE.gravity(),
         }
     }
 
@@ -185,7 +180,7 @@ fn flip_records_match_an_independent_integration() {
         // How much the point's own motion adds: what a flip without its
         // lift and shift would miss.
         let k = traj.kinematics(r.t - 0.005);
-        motion_v = motion_v.max((k.f_b - k.c_b_n.transpose() * site().f_rest_n()).norm());
+        motion_v = motion_v.max((k.f_b - k.c_b_n.transpose() * Site::REFERENCE.f_rest_n()).norm());
         n += 1;
     }
     eprintln!("{n} records: worst dθ {worst_th:.1e} rad, dv {worst_v:.1e} m/s");
@@ -310,18 +305,7 @@ fn hand_turned_nine_plus_nine_calibrates_within_table1() {
             seed,
             ..config(scheme, 20.0, truth, Noise::default_navigation_grade())
         };
-        let run = RunInfo {
-            site: cfg.site,
-            sample_rate_hz: cfg.sample_rate_hz,
-        };
-        let res = estimate(
-            &SimSource(cfg),
-            &run,
-            &opts,
-            &mut |_| {},
-            &AtomicBool::new(false),
-        )
-        .unwrap();
+        let res = calibrate_simulated(&cfg, &opts).unwrap();
         assert_eq!(res.dwell_residuals.len(), 19, "seed {seed}: 19 dwells");
         for (i, p) in PARAMETERS.iter().enumerate() {
             let err = res.parameters[p.name].value - truth.canonical(i);

@@ -17,7 +17,7 @@ struct Outcome {
 
 fn navigate(scheme: Scheme, params: ErrorParameters, phi_deg: [f64; 3], rate_hz: f64) -> Outcome {
     let cfg = SimConfig {
-        site: Site::new(28.2215, 112.9924, 50.0),
+        site: Site::REFERENCE,
         sample_rate_hz: rate_hz,
         scheme,
         params,

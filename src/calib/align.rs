@@ -90,7 +90,7 @@ mod tests {
 
     #[test]
     fn coarse_alignment_recovers_a_tilted_turned_attitude() {
-        let site = Site::new(28.2215, 112.9924, 50.0);
+        let site = Site::REFERENCE;
         for heading_deg in [0.0, 73.0, 181.0, -95.0] {
             let c = rotvec_to_dcm(&Vector3::new(0.06, -0.08, f64::to_radians(heading_deg)));
             let f_b = c.transpose() * site.f_rest_n();

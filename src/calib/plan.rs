@@ -10,15 +10,13 @@
 //! different parameters at another heading or tilt.
 
 use std::collections::BTreeMap;
-use std::sync::atomic::AtomicBool;
 
 use serde::{Deserialize, Serialize};
 
 use super::error::CalibError;
-use super::estimate::estimate;
 use super::options::{EstimateOptions, NoiseDensity};
-use super::run::{EstimatorKind, RunInfo};
-use super::sources::SimSource;
+use super::run::EstimatorKind;
+use super::sources::calibrate_simulated;
 use crate::model::{Effects, ErrorParameters};
 use crate::nav::Site;
 use crate::sim::{Noise, Scheme, SimConfig};
@@ -70,17 +68,7 @@ pub fn plan(input: &PlanInput, opts: &EstimateOptions) -> Result<Plan, CalibErro
         cross_check: false,
         ..opts.clone()
     };
-    let run = RunInfo {
-        site: input.site,
-        sample_rate_hz: input.sample_rate_hz,
-    };
-    let result = estimate(
-        &SimSource(cfg),
-        &run,
-        &opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )?;
+    let result = calibrate_simulated(&cfg, &opts)?;
     Ok(Plan {
         scheme: input.scheme.name.clone(),
         duration_s: result.duration_s,

@@ -1,8 +1,13 @@
 //! Record sources that need no files: a simulation regenerated on every
 //! pass (tests, planning), and any in-memory slice (short runs).
 
+use std::sync::atomic::AtomicBool;
+
 use super::error::CalibError;
-use super::run::RecordSource;
+use super::estimate::estimate;
+use super::options::EstimateOptions;
+use super::result::CalibrationResult;
+use super::run::{RecordSource, RunInfo};
 use crate::record::Record;
 use crate::sim::{simulate, SimConfig};
 
@@ -16,6 +21,26 @@ impl RecordSource for SimSource {
         let sim = simulate(&self.0).map_err(|e| CalibError::Source(e.to_string()))?;
         Ok(Box::new(sim.map(Ok)))
     }
+}
+
+/// Calibrates a simulated run with `opts` at the simulation's own site
+/// and rate, with no progress reports and no cancellation: what planning,
+/// the tests and the benchmarks do with a simulation.
+pub fn calibrate_simulated(
+    cfg: &SimConfig,
+    opts: &EstimateOptions,
+) -> Result<CalibrationResult, CalibError> {
+    let run = RunInfo {
+        site: cfg.site,
+        sample_rate_hz: cfg.sample_rate_hz,
+    };
+    estimate(
+        &SimSource(cfg.clone()),
+        &run,
+        opts,
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )
 }
 
 /// Records already in memory.

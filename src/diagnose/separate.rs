@@ -247,7 +247,7 @@ mod tests {
 
     fn ctx<'a>(comp: &'a ErrorParameters, cancel: &'a AtomicBool) -> ProbeContext<'a> {
         ProbeContext {
-            site: Site::new(28.2215, 112.9924, 50.0),
+            site: Site::REFERENCE,
             sample_rate_hz: 20.0,
             c_b_n_start: Matrix3::identity(),
             compensation: comp,

@@ -96,7 +96,7 @@ pub struct SimRun {
 
 pub fn sim_config(seed: u64, params: ErrorParameters, scheme: &str, dwell_s: f64) -> SimConfig {
     SimConfig {
-        site: Site::new(28.2215, 112.9924, 50.0),
+        site: Site::REFERENCE,
         sample_rate_hz: 100.0,
         scheme: Scheme::builtin(scheme, dwell_s).expect("built-in scheme"),
         params,

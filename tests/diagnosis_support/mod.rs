@@ -15,10 +15,6 @@ use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{scheme, Noise, Scheme, SimConfig};
 
-pub fn site() -> Site {
-    Site::new(28.2215, 112.9924, 50.0)
-}
-
 /// The test runs: the paper's 9+9 scheme with its 600 s dwells at 20 Hz
 /// (the noise densities, not the rate, set the information, so 20 Hz
 /// keeps the paper's accuracy at a fifth of the records), the paper's
@@ -26,7 +22,7 @@ pub fn site() -> Site {
 /// degree off nominal.
 pub fn config(scheme: Scheme, effects: Effects, seed: u64) -> SimConfig {
     SimConfig {
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: 20.0,
         scheme,
         params: ErrorParameters::paper(),

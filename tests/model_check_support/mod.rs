@@ -7,14 +7,13 @@
 // The test runs' site and schemes are the discrepancy workflow's.
 #[path = "../diagnosis_support/mod.rs"]
 mod diagnosis_support;
-pub use diagnosis_support::{both_ways, nine_plus_nine, site};
+pub use diagnosis_support::{both_ways, nine_plus_nine};
 
-use std::sync::atomic::AtomicBool;
-
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{estimate, CalibrationResult, EstimateOptions, ModelCheck, RunInfo};
+use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::{CalibrationResult, EstimateOptions, ModelCheck};
 use sinscal::model::effects::{BiasDrift, LeverArms};
 use sinscal::model::{Effects, ErrorParameters};
+use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 
 /// Navigation grade (the reference scenario's noise).
@@ -46,7 +45,7 @@ pub fn nine_plus_nine_by_hand(dwell_s: f64, seed: u64) -> Scheme {
 /// degree off nominal.
 pub fn config(scheme: Scheme, effects: Effects, noise: Noise, rate: f64, seed: u64) -> SimConfig {
     SimConfig {
-        site: site(),
+        site: Site::REFERENCE,
         sample_rate_hz: rate,
         scheme,
         params: ErrorParameters::paper(),
@@ -64,17 +63,7 @@ pub fn calibrate(cfg: &SimConfig) -> CalibrationResult {
         cross_check: false,
         ..EstimateOptions::default()
     };
-    estimate(
-        &SimSource(cfg.clone()),
-        &RunInfo {
-            site: cfg.site,
-            sample_rate_hz: cfg.sample_rate_hz,
-        },
-        &opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap()
+    calibrate_simulated(cfg, &opts).unwrap()
 }
 
 pub fn check(cfg: &SimConfig) -> ModelCheck {
