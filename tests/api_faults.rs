@@ -118,6 +118,59 @@ async fn json_of(r: reqwest::Response, status: StatusCode) -> Value {
     r.json().await.unwrap()
 }
 
+/// Uploads `run` and steps the queue in the background until its job is
+/// running: the upload's answer, the job's id and the step.
+async fn upload_and_start(
+    app: &TestApp,
+    serial: &str,
+    run: &SimRun,
+) -> (
+    Value,
+    String,
+    tokio::task::JoinHandle<Result<sinscal::jobs::Outcome, sinscal::jobs::JobError>>,
+) {
+    let a = json_of(app.upload_run(serial, run).await, StatusCode::ACCEPTED).await;
+    let job = a["job_id"].as_str().unwrap().to_string();
+    let runner = app.runner.clone();
+    let step = tokio::spawn(async move { runner.try_run_next_job(0).await });
+    wait_job_until(app, &job, "claimed", |j| j["state"] == "running").await;
+    (a, job, step)
+}
+
+/// Once storage is back: the held job `job` ends as succeeded.
+async fn assert_succeeds(
+    step: tokio::task::JoinHandle<Result<sinscal::jobs::Outcome, sinscal::jobs::JobError>>,
+    job: &str,
+) {
+    let outcome = step.await.unwrap().unwrap();
+    assert_eq!(
+        outcome,
+        sinscal::jobs::Outcome::Ran {
+            job_id: job.to_string(),
+            end: sinscal::jobs::JobEnd::Succeeded
+        }
+    );
+}
+
+/// A second upload is accepted and calibrated; both jobs succeeded at
+/// their first attempt and exactly their two files are stored.
+async fn assert_second_upload_calibrates(
+    app: &TestApp,
+    a: &Value,
+    serial: &str,
+    run_b: &SimRun,
+) -> Value {
+    let b = json_of(app.upload_run(serial, run_b).await, StatusCode::ACCEPTED).await;
+    app.runner.try_run_next_job(0).await.unwrap();
+    for run in [a, &b] {
+        let j = app.get_job(run["job_id"].as_str().unwrap()).await;
+        assert_eq!(j["state"], "succeeded", "{j}");
+        assert_eq!(j["attempts"], 1, "{j}");
+    }
+    assert_eq!(app.stored_files().len(), 2, "{:?}", app.stored_files());
+    b
+}
+
 /// The disk really fills (a 30 MiB tmpfs): an upload is 507 with
 /// Retry-After, readiness 503, a job whose result meets the full disk
 /// waits; once space is freed everything completes with no restart.
@@ -134,16 +187,8 @@ async fn a_real_full_disk_refuses_uploads_and_recovers_by_itself() {
     // The floor is off so that the writes themselves meet ENOSPC and
     // SQLITE_FULL (the floor is tested apart). The test steps the queue.
     let app = spawn_app_in(mount, 0, |c| c.min_free_bytes = 0).await;
-    let a = json_of(
-        app.upload_run("RLG-FULL", &run_a).await,
-        StatusCode::ACCEPTED,
-    )
-    .await;
-    let job_a = a["job_id"].as_str().unwrap().to_string();
-    let runner = app.runner.clone();
-    let step = tokio::spawn(async move { runner.try_run_next_job(0).await });
     // Job A is running: its result (≈ 0.5 MB) will meet the full disk.
-    wait_job_until(&app, &job_a, "claimed", |j| j["state"] == "running").await;
+    let (a, job_a, step) = upload_and_start(&app, "RLG-FULL", &run_a).await;
     let ballast = fill_disk(&mount_path);
 
     assert_storage_full(
@@ -186,31 +231,13 @@ async fn a_real_full_disk_refuses_uploads_and_recovers_by_itself() {
     assert_eq!(app.get_job(&job_a).await["state"], "running");
 
     std::fs::remove_file(&ballast).unwrap();
-    let outcome = step.await.unwrap().unwrap();
-    assert_eq!(
-        outcome,
-        sinscal::jobs::Outcome::Ran {
-            job_id: job_a.clone(),
-            end: sinscal::jobs::JobEnd::Succeeded
-        }
-    );
+    assert_succeeds(step, &job_a).await;
     wait_ready(&app, Duration::from_secs(30)).await;
-    let b = json_of(
-        app.upload_run("RLG-FULL", &run_b).await,
-        StatusCode::ACCEPTED,
-    )
-    .await;
-    app.runner.try_run_next_job(0).await.unwrap();
-    for run in [&a, &b] {
-        let j = app.get_job(run["job_id"].as_str().unwrap()).await;
-        assert_eq!(j["state"], "succeeded", "{j}");
-        assert_eq!(j["attempts"], 1, "{j}");
-    }
+    let b = assert_second_upload_calibrates(&app, &a, "RLG-FULL", &run_b).await;
     for run in [&a, &b] {
         let result = app.get_result(run["run_id"].as_str().unwrap()).await;
         assert_eq!(result["parameters"].as_object().unwrap().len(), 24);
     }
-    assert_eq!(app.stored_files().len(), 2, "{:?}", app.stored_files());
     // The writer is usable: a write after the full disk succeeds.
     app.create_token("engineer").await;
     app.stop().await;
@@ -226,15 +253,7 @@ async fn an_injected_storage_error_holds_the_result_until_the_write_succeeds() {
     let (dir_a, dir_b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let run_a = short_run(dir_a.path(), 3, DataFormat::Csv, "RLG-SEAM");
     let run_b = short_run(dir_b.path(), 4, DataFormat::Csv, "RLG-SEAM");
-    let a = json_of(
-        app.upload_run("RLG-SEAM", &run_a).await,
-        StatusCode::ACCEPTED,
-    )
-    .await;
-    let job_a = a["job_id"].as_str().unwrap().to_string();
-    let runner = app.runner.clone();
-    let step = tokio::spawn(async move { runner.try_run_next_job(0).await });
-    wait_job_until(&app, &job_a, "claimed", |j| j["state"] == "running").await;
+    let (a, job_a, step) = upload_and_start(&app, "RLG-SEAM", &run_a).await;
     app.store.simulate_storage_full(true);
 
     assert_storage_full(app.upload_run("RLG-SEAM", &run_b).await, "upload").await;
@@ -248,27 +267,9 @@ async fn an_injected_storage_error_holds_the_result_until_the_write_succeeds() {
     assert_eq!(app.get_job(&job_a).await["state"], "running");
 
     app.store.simulate_storage_full(false);
-    let outcome = step.await.unwrap().unwrap();
-    assert_eq!(
-        outcome,
-        sinscal::jobs::Outcome::Ran {
-            job_id: job_a.clone(),
-            end: sinscal::jobs::JobEnd::Succeeded
-        }
-    );
+    assert_succeeds(step, &job_a).await;
     assert_eq!(readyz(&app).await, StatusCode::OK);
-    let b = json_of(
-        app.upload_run("RLG-SEAM", &run_b).await,
-        StatusCode::ACCEPTED,
-    )
-    .await;
-    app.runner.try_run_next_job(0).await.unwrap();
-    for run in [&a, &b] {
-        let j = app.get_job(run["job_id"].as_str().unwrap()).await;
-        assert_eq!(j["state"], "succeeded", "{j}");
-        assert_eq!(j["attempts"], 1, "{j}");
-    }
-    assert_eq!(app.stored_files().len(), 2);
+    assert_second_upload_calibrates(&app, &a, "RLG-SEAM", &run_b).await;
     app.stop().await;
 }
 
