@@ -8,16 +8,18 @@
 //! navigation-grade noise); the full-size figures come from
 //! `cargo bench --bench accuracy -- --raw`.
 
+mod table1_support;
+
 use rand::SeedableRng;
 use sinscal::calib::segment::{SegmentKind, Segmenter};
 use sinscal::calib::sources::calibrate_simulated;
 use sinscal::calib::RunSegment;
 use sinscal::calib::{CalibError, CalibrationResult, DetectOptions, EstimateOptions};
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
 use sinscal::sim::trajectory::Motion;
 use sinscal::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
+use table1_support::{assert_within_table1, worst_against_table1};
 
 fn config(params: ErrorParameters, attitude: [f64; 3], seed: u64) -> SimConfig {
     SimConfig {
@@ -59,32 +61,8 @@ fn assert_calibrated(cfg: &SimConfig, what: &str) {
     let truth = &cfg.params;
     let (dwells, _) = cfg.scheme.counts();
     assert_eq!(res.dwell_residuals.len(), dwells, "{what}: dwells found");
-    let mut worst = (0.0f64, "");
-    for (i, p) in PARAMETERS.iter().enumerate() {
-        let est = &res.parameters[p.name];
-        let err = est.value - truth.canonical(i);
-        let ratio = err.abs() / paper_accuracy(p.group);
-        if ratio > worst.0 {
-            worst = (ratio, p.name);
-        }
-        if ratio < 1.0 {
-            continue;
-        }
-        let statistical = p.group == Group::GyroBias && err.abs() < 3.5 * est.sigma;
-        eprintln!(
-            "{what}: {} error {err:.6} {} beyond the Table 1 bound ({:.2}σ)",
-            p.name,
-            p.unit,
-            err / est.sigma
-        );
-        assert!(
-            statistical,
-            "{what}: {} error {err:.6} {} exceeds the Table 1 bound {}",
-            p.name,
-            p.unit,
-            paper_accuracy(p.group)
-        );
-    }
+    assert_within_table1(&res, truth, what);
+    let worst = worst_against_table1(&res, truth);
     eprintln!(
         "{what}: {} passes, worst |err|/bound {:.2} ({})",
         res.passes, worst.0, worst.1
