@@ -344,33 +344,22 @@ fn out_of_reach(scorer: &Scorer, dwell_s: f64) -> Result<String, DesignError> {
 
 /// A built-in scheme on the same goal: the uniform dwell it needs.
 fn compare(name: &str, scorer: &Scorer) -> Result<Comparison, DesignError> {
-    let at = |d: f64| -> Result<Information, DesignError> {
-        let s = Scheme::builtin(name, d).expect("a built-in scheme");
-        Ok(scorer.information(&s)?)
-    };
-    let worst_600 = scorer.worst(&at(DEFAULT_DWELL_S)?);
-    let (mut lo, mut hi) = (20.0f64, 3600.0f64);
-    if scorer.worst(&at(hi)?) > 1.0 {
-        return Ok(Comparison {
-            scheme: name.to_string(),
-            dwell_s: None,
-            duration_s: None,
-            worst_ratio_at_600_s: worst_600,
-        });
-    }
-    while hi / lo > 1.01 {
-        let mid = (lo * hi).sqrt();
-        if scorer.worst(&at(mid)?) <= 1.0 {
-            hi = mid;
-        } else {
-            lo = mid;
+    let builtin = |d: f64| Scheme::builtin(name, d).expect("a built-in scheme");
+    let worst_600 = scorer.worst(&scorer.information(&builtin(DEFAULT_DWELL_S))?);
+    let min_dwell = EstimateOptions::default().detect.min_dwell_s;
+    let needed = search::shortest_dwell(scorer, min_dwell, 3600.0, builtin)?;
+    // Whole seconds, as a table's controller takes them.
+    let (dwell_s, duration_s) = match needed {
+        Some((d, _)) => {
+            let d = d.ceil();
+            (Some(d), Some(scorer.information(&builtin(d))?.duration_s))
         }
-    }
-    let dwell = hi.ceil();
+        None => (None, None),
+    };
     Ok(Comparison {
         scheme: name.to_string(),
-        dwell_s: Some(dwell),
-        duration_s: Some(at(dwell)?.duration_s),
+        dwell_s,
+        duration_s,
         worst_ratio_at_600_s: worst_600,
     })
 }

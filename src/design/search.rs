@@ -139,18 +139,18 @@ pub fn build(name: &str, turns: &[Turn], dwells: &[f64], space: &SearchSpace) ->
     }
 }
 
-/// The shortest uniform dwell (to 1 %) at which `turns` meets the goal,
-/// with the scheme's information there; `None` if even the longest dwell
-/// does not.
-pub fn shortest_uniform_dwell(
-    turns: &[Turn],
-    space: &SearchSpace,
+/// The shortest dwell in [`lo`, `hi`] (to 1 %) at which the scheme
+/// `scheme_at(dwell)` meets the goal, with its information there; `None`
+/// if even `hi` does not. σ falls as dwells grow, so bisection (on a log
+/// scale) finds it.
+pub fn shortest_dwell(
     scorer: &Scorer,
+    lo: f64,
+    hi: f64,
+    scheme_at: impl Fn(f64) -> Scheme,
 ) -> Result<Option<(f64, Information)>, CalibError> {
-    let at = |d: f64| -> Result<Information, CalibError> {
-        scorer.information(&build("probe", turns, &vec![d; turns.len() + 1], space))
-    };
-    let (mut lo, mut hi) = (space.min_dwell_s, space.max_dwell_s);
+    let at = |d: f64| scorer.information(&scheme_at(d));
+    let (mut lo, mut hi) = (lo, hi);
     let top = at(hi)?;
     if scorer.worst(&top) > 1.0 {
         return Ok(None);
@@ -171,6 +171,17 @@ pub fn shortest_uniform_dwell(
         }
     }
     Ok(Some(best))
+}
+
+/// The shortest uniform dwell at which `turns` meets the goal.
+pub fn shortest_uniform_dwell(
+    turns: &[Turn],
+    space: &SearchSpace,
+    scorer: &Scorer,
+) -> Result<Option<(f64, Information)>, CalibError> {
+    shortest_dwell(scorer, space.min_dwell_s, space.max_dwell_s, |d| {
+        build("probe", turns, &vec![d; turns.len() + 1], space)
+    })
 }
 
 /// The best sequence found for one number of turns.
