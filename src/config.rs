@@ -9,7 +9,7 @@
 //! other.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use crate::calib::EstimateOptions;
@@ -204,6 +204,12 @@ pub fn default_tolerances() -> BTreeMap<String, f64> {
         .collect()
 }
 
+/// The database file inside a data folder: what `serve` opens and
+/// `token create` requires.
+pub fn database_path(data_dir: &Path) -> PathBuf {
+    data_dir.join("sinscal.db")
+}
+
 /// `v` seconds as a duration, refused with the flag's name unless finite
 /// and at least `min`.
 fn seconds_flag(flag: &str, v: f64, min: f64) -> Result<Duration, ConfigError> {
@@ -302,11 +308,6 @@ impl Config {
             }
         }
         Ok(c)
-    }
-
-    /// The database file inside the data folder.
-    pub fn db_path(&self) -> PathBuf {
-        self.data_dir.join("sinscal.db")
     }
 }
 

@@ -15,7 +15,7 @@ use tokio::net::TcpListener;
 use tokio::sync::{Notify, Semaphore};
 
 use crate::api::{self, auth, AppState};
-use crate::config::{Config, ConfigError, ServeArgs};
+use crate::config::{database_path, Config, ConfigError, ServeArgs};
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
 use crate::metrics::Metrics;
 use crate::runfiles::{RunFiles, Swept};
@@ -48,7 +48,7 @@ async fn open_store(data_dir: &Path, readers: u32) -> Result<Store, ServerError>
     RunFiles::new(data_dir)
         .create_dirs()
         .map_err(io_err(format!("creating {}", data_dir.display())))?;
-    Ok(Store::open(&data_dir.join("sinscal.db"), readers).await?)
+    Ok(Store::open(&database_path(data_dir), readers).await?)
 }
 
 /// Removes what a crash can leave behind (see [`RunFiles::sweep`]).
@@ -239,7 +239,7 @@ pub fn create_token(
 ) -> Result<String, ServerError> {
     // A mistyped --data-dir must not create a new, empty database whose
     // token works on no server.
-    let db = data_dir.join("sinscal.db");
+    let db = database_path(data_dir);
     if !db.is_file() {
         return Err(ServerError::NoDatabase(db.display().to_string()));
     }
