@@ -65,26 +65,12 @@ pub struct ObjectiveSettings {
     pub min_dwell_s: f64,
 }
 
-/// What one step of the scheme added.
-#[derive(Clone, Debug, PartialEq)]
-pub struct StepGain {
-    /// Index into the scheme's steps.
-    pub step: usize,
-    pub resting: bool,
-    pub t_end: f64,
-    /// Information gained, nats: half the drop of log det of the
-    /// parameters' covariance over the step. A turn gains none by itself
-    /// (no update is made during it) but changes what the next dwell sees.
-    pub nats: f64,
-}
-
 /// The objective's answer for one scheme.
 #[derive(Clone, Debug)]
 pub struct Information {
     /// Predicted 1-σ of each parameter, SI, in `PARAMETERS` order.
     pub sigma_si: Vec<f64>,
     pub duration_s: f64,
-    pub gains: Vec<StepGain>,
 }
 
 impl Information {
@@ -121,19 +107,6 @@ fn add_rest(kf: &mut SystematicFilter, kin: &Kinematics, t: f64) {
     }
 }
 
-/// −½ log det of the parameters' covariance (scaled to their priors, so
-/// the number does not depend on units).
-fn information_nats(kf: &SystematicFilter) -> Result<f64, CalibError> {
-    let cov = kf.parameter_covariance_si()?;
-    let scale = kf.scale();
-    let n = cov.nrows();
-    let scaled = nalgebra::DMatrix::from_fn(n, n, |r, c| cov[(r, c)] / (scale[r] * scale[c]));
-    let chol = scaled
-        .cholesky()
-        .ok_or_else(|| CalibError::Numerical("parameter covariance not positive".into()))?;
-    Ok(-chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>())
-}
-
 /// The predicted σ of every parameter on `scheme`.
 pub fn scheme_information(
     scheme: &Scheme,
@@ -151,10 +124,6 @@ pub fn scheme_information(
         s.zupt_sigma_mps,
     );
     let segments = traj.segments();
-    let mut gains = Vec::with_capacity(segments.len());
-    let mut before = 0.0;
-    // Steps of zero length leave no segment; map segments back to steps.
-    let step_of = step_indices(scheme);
     for (k, seg) in segments.iter().enumerate() {
         let mid = 0.5 * (seg.t0 + seg.t1);
         match seg.motion {
@@ -187,20 +156,11 @@ pub fn scheme_information(
             Motion::Rotate { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
             Motion::Flip { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
         }
-        let now = information_nats(&kf)?;
-        gains.push(StepGain {
-            step: step_of[k],
-            resting: matches!(seg.motion, Motion::Dwell),
-            t_end: seg.t1,
-            nats: now - before,
-        });
-        before = now;
     }
     let (_, sigma_si) = kf.parameters()?;
     Ok(Information {
         sigma_si,
         duration_s: traj.duration(),
-        gains,
     })
 }
 
@@ -263,21 +223,4 @@ fn turn(kf: &mut SystematicFilter, traj: &Trajectory, k: usize, angle_rad: f64) 
         }
         kf.propagate(window);
     }
-}
-
-/// For each trajectory segment, the index of the scheme step it came
-/// from (zero-length dwells and turns leave no segment).
-fn step_indices(scheme: &Scheme) -> Vec<usize> {
-    use crate::sim::scheme::Step;
-    scheme
-        .steps
-        .iter()
-        .enumerate()
-        .filter(|(_, step)| match step {
-            Step::Dwell { dwell_s } => *dwell_s > 0.0,
-            Step::Rotate { rotate } => rotate.angle_deg != 0.0,
-            Step::Flip { .. } => true,
-        })
-        .map(|(i, _)| i)
-        .collect()
 }
