@@ -71,12 +71,8 @@ impl DesignBody {
                      accuracies by parameter name)"
                 )))
             }
-            Some(TargetSpec::Accuracies(map)) => {
-                let text =
-                    serde_json::to_vec(&map).map_err(|e| ApiError::Internal(e.to_string()))?;
-                Target::from_json("request", &text)
-                    .map_err(|e| ApiError::Unprocessable(e.to_string()))?
-            }
+            Some(TargetSpec::Accuracies(map)) => Target::from_accuracies("request", map)
+                .map_err(|e| ApiError::Unprocessable(e.to_string()))?,
         };
         let target = match self.tighten {
             None => target,

@@ -36,7 +36,15 @@ impl Target {
     /// A JSON object of accuracies by canonical parameter name; parameters
     /// it leaves out keep their Table 1 value.
     pub fn from_json(name: &str, text: &[u8]) -> Result<Target, TargetError> {
-        let given: BTreeMap<String, f64> = serde_json::from_slice(text)?;
+        Target::from_accuracies(name, serde_json::from_slice(text)?)
+    }
+
+    /// Accuracies by canonical parameter name; parameters left out keep
+    /// their Table 1 value.
+    pub fn from_accuracies(
+        name: &str,
+        given: BTreeMap<String, f64>,
+    ) -> Result<Target, TargetError> {
         let mut t = Target::table1();
         t.name = name.to_string();
         for (key, value) in given {
