@@ -64,12 +64,13 @@ async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn designs_run_one_at_a_time_within_the_time_limit() {
     let app = spawn_app_with(0, |c| {
-        c.design_time_limit = std::time::Duration::from_secs(1)
+        c.design_time_limit = std::time::Duration::from_secs(5)
     })
     .await;
     let engineer = app.create_token("engineer").await;
     // Table 1 at navigation-grade noise scores thousands of schemes; two
-    // at once: one runs into the limit, the other finds the slot taken.
+    // at once: one runs into the limit, the other finds the slot taken (the
+    // limit leaves the second request seconds to arrive while the first runs).
     let send = || {
         app.http
             .post(app.url("/schemes/design"))
@@ -93,7 +94,7 @@ async fn designs_run_one_at_a_time_within_the_time_limit() {
     let (status, p) = &answers[0];
     assert_eq!(*status, StatusCode::UNPROCESSABLE_ENTITY);
     assert!(
-        p["detail"].as_str().unwrap().contains("time limit of 1 s"),
+        p["detail"].as_str().unwrap().contains("time limit of 5 s"),
         "{p}"
     );
     app.stop().await;
