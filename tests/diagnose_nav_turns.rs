@@ -28,7 +28,11 @@ fn assert_reconstructed_in_n(rep: &sinscal::diagnose::DiagnoseReport, cfg: &SimC
             Step::Dwell { .. } | Step::Flip { .. } => None,
         })
         .collect();
-    let found = &rep.scheme.rotations;
+    let found = &rep
+        .scheme
+        .as_ref()
+        .expect("table turns about n axes are described as a scheme")
+        .rotations;
     assert_eq!(found.len(), truth.len());
     for (f, (axis, angle)) in found.iter().zip(truth) {
         assert_eq!((f.axis, f.frame), (axis, Frame::Nav), "{f:?}");

@@ -293,6 +293,12 @@ impl SystematicFilter {
         v
     }
 
+    /// The sensitivity V of the navigation errors to the (scaled)
+    /// parameters, 6 × n_p.
+    pub fn sensitivity(&self) -> &DMatrix<f64> {
+        &self.v
+    }
+
     /// The scaled parameter estimate J⁻¹ h.
     pub fn scaled_estimate(&self) -> Result<DVector<f64>, CalibError> {
         self.solve_information()

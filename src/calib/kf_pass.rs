@@ -5,6 +5,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
+use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
 use super::filter::Innovation;
 use super::model_check::{CheckAccumulator, ModelCheck};
@@ -108,35 +109,43 @@ pub(super) fn kf_pass(
         .collect();
     let mut check = CheckAccumulator::new(&ctx.scan.segments, N_PARAMS);
 
-    walk(ctx, &comp, &c_b_n0, &mut kf, progress, |kf, w| {
-        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
-        let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
-        if dwell.is_some() || ctx.opts.zupt_in_motion {
-            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
-            if let Some(d) = dwell {
-                dwell_acc[d].add(&innov);
-                check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
+    walk(
+        ctx,
+        &comp,
+        &c_b_n0,
+        &mut kf,
+        &EffectTerms::none(),
+        progress,
+        |kf, w| {
+            let d0 = dwell_at(&ctx.scan.segments, w.t_start);
+            let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
+            if dwell.is_some() || ctx.opts.zupt_in_motion {
+                let innov = kf.update_zero_velocity(&w.nav.v_n)?;
+                if let Some(d) = dwell {
+                    dwell_acc[d].add(&innov);
+                    check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
+                }
+                let (phi, dv) = kf.take_navigation_errors();
+                w.nav.correct(&phi, &dv, &Vector3::zeros());
+                w.corrected = true;
             }
-            let (phi, dv) = kf.take_navigation_errors();
-            w.nav.correct(&phi, &dv, &Vector3::zeros());
-            w.corrected = true;
-        }
-        if w.index % every == 0 || w.index + 1 == n_windows {
-            let (d, s) = kf.parameters()?;
-            history.t.push(w.t_end);
-            history.value.push(
-                (0..N_PARAMS)
-                    .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
-                    .collect(),
-            );
-            history.sigma.push(
-                (0..N_PARAMS)
-                    .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
-                    .collect(),
-            );
-        }
-        Ok(())
-    })?;
+            if w.index % every == 0 || w.index + 1 == n_windows {
+                let (d, s) = kf.parameters()?;
+                history.t.push(w.t_end);
+                history.value.push(
+                    (0..N_PARAMS)
+                        .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
+                        .collect(),
+                );
+                history.sigma.push(
+                    (0..N_PARAMS)
+                        .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
+                        .collect(),
+                );
+            }
+            Ok(())
+        },
+    )?;
 
     let (delta, sigma) = kf.parameters()?;
     if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {

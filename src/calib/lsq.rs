@@ -26,6 +26,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
+use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
 use super::filter::{error_dynamics, NAV};
 use super::nodes::{walk_nodes, Stretch};
@@ -68,17 +69,25 @@ pub(super) fn lsq_pass(
         t: 0.0,
     }];
     let mut since_node = 0.0;
-    walk_nodes(ctx, &comp, &c_b_n0, window_s, progress, |w, node| {
-        since_node += w.t_end - w.t_start;
-        if let Some((_, b)) = node {
-            nodes.push(Node {
-                v: w.nav.v_n,
-                b,
-                t: since_node,
-            });
-            since_node = 0.0;
-        }
-    })?;
+    walk_nodes(
+        ctx,
+        &comp,
+        &c_b_n0,
+        window_s,
+        &EffectTerms::none(),
+        progress,
+        |w, b, node| {
+            since_node += w.t_end - w.t_start;
+            if node.is_some() {
+                nodes.push(Node {
+                    v: w.nav.v_n,
+                    b: b.clone(),
+                    t: since_node,
+                });
+                since_node = 0.0;
+            }
+        },
+    )?;
     if nodes.len() < 3 {
         return Err(CalibError::Unusable(
             "too few dwells for the least-squares cross-check".into(),

@@ -5,6 +5,7 @@
 
 pub mod align;
 pub mod check_statistics;
+pub mod effect_sensitivity;
 pub mod error;
 pub mod estimate;
 pub mod filter;

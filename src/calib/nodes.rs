@@ -6,6 +6,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
+use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
 use super::filter::{process_noise, transition};
 use super::prescan::dwell_at;
@@ -55,26 +56,37 @@ impl NodeSchedule {
 
 /// Walks the run once, compensated with `comp`, from `c_b_n0`, with
 /// nodes scheduled for windows of `window_s`: hands every window's end to
-/// `on_window`, with, when it is a node, the dwell it lies in and the
-/// parameter columns (scaled) accumulated since the node before.
+/// `on_window`, with the columns (scaled) accumulated since the node
+/// before, and whether it is a node (the dwell it lies in; the columns
+/// then start again from zero). The columns are the base 24 and then one
+/// per effect state of `effects`.
 pub(crate) fn walk_nodes(
     ctx: &PassContext,
     comp: &Compensator,
     c_b_n0: &Matrix3<f64>,
     window_s: f64,
+    effects: &EffectTerms,
     progress: &mut dyn FnMut(f64),
-    mut on_window: impl FnMut(&WindowEnd, Option<(usize, DMatrix<f64>)>),
+    mut on_window: impl FnMut(&WindowEnd, &DMatrix<f64>, Option<usize>),
 ) -> Result<(), CalibError> {
     // Used only to accumulate the parameter columns between nodes.
-    let mut sens = ctx.filter(1.0);
+    let mut sens = ctx.filter_with_effects(1.0, &effects.scale);
     let mut schedule = NodeSchedule::new(window_s);
-    walk(ctx, comp, c_b_n0, &mut sens, progress, |sens, w| {
-        let node = schedule
-            .node_at(&ctx.scan.segments, w.t_start, w.t_end)
-            .map(|d| (d, sens.take_sensitivity()));
-        on_window(w, node);
-        Ok(())
-    })
+    walk(
+        ctx,
+        comp,
+        c_b_n0,
+        &mut sens,
+        effects,
+        progress,
+        |sens, w| {
+            match schedule.node_at(&ctx.scan.segments, w.t_start, w.t_end) {
+                Some(d) => on_window(w, &sens.take_sensitivity(), Some(d)),
+                None => on_window(w, sens.sensitivity(), None),
+            }
+            Ok(())
+        },
+    )
 }
 
 /// The error model over the stretch between nodes k and k+1:

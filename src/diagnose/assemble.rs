@@ -6,7 +6,7 @@
 use nalgebra::Vector3;
 
 use super::detect;
-use super::gap::{GapFit, GapProblem, Nodes, Signatures};
+use super::gap::{GapFit, GapProblem, Nodes};
 use super::library::{effect_estimates, explanation, Library};
 use super::localise::{localise, segment_gaps, StretchKind};
 use super::options::DiagnoseOptions;
@@ -22,7 +22,6 @@ pub(crate) struct Inputs<'a> {
     pub lib: &'a Library,
     pub problem: &'a GapProblem,
     pub nodes: &'a Nodes,
-    pub sig: &'a Signatures,
     pub kinds: &'a [StretchKind],
     /// The run's start (start of the first record's interval) and length, s.
     pub t0: f64,
@@ -33,7 +32,8 @@ pub(crate) struct Inputs<'a> {
     pub base_cal: CalibrationResult,
     pub params: &'a ErrorParameters,
     pub prior: &'a [f64],
-    pub recon: Reconstruction,
+    /// The run's turns as a scheme, or why they are not one.
+    pub recon: Result<Reconstruction, String>,
 }
 
 /// The report.
@@ -42,6 +42,11 @@ pub(crate) fn report(inp: Inputs, sel: Selection) -> DiagnoseReport {
     let mut warnings = Vec::new();
     if sel.stopped_at_max {
         warnings.push(sel.verdict.to_string());
+    }
+    if let Err(why) = &inp.recon {
+        warnings.push(format!(
+            "the run's turns are not described as a scheme: {why}"
+        ));
     }
     let steps: Vec<DiagnoseStep> = sel.steps.iter().map(|s| step(&inp, &sel, s)).collect();
     let final_expl = explanation(lib, inp.params, inp.prior, &sel.current, &sel.named);
@@ -73,7 +78,7 @@ pub(crate) fn report(inp: Inputs, sel: Selection) -> DiagnoseReport {
         calibration,
         effects,
         base_calibration: inp.base_cal,
-        scheme: inp.recon,
+        scheme: inp.recon.ok(),
         steps,
         series,
         warnings,
@@ -181,9 +186,9 @@ fn final_calibration(
 }
 
 /// The node residuals before and after, and the open-loop velocity
-/// difference less the named effects' simulated contribution.
+/// less the named effects' contribution along the run's motion.
 fn series(inp: &Inputs, sel: &Selection) -> GapSeries {
-    let (nodes, sig, n) = (inp.nodes, inp.sig, inp.opts.series_points);
+    let (nodes, n) = (inp.nodes, inp.opts.series_points);
     let to3 = |v: Vector3<f64>| -> [f64; 3] { v.into() };
     let node_t: Vec<f64> = nodes.t[1..].iter().map(|t| t - inp.t0).collect();
     let res_v = |f: &GapFit| -> Vec<[f64; 3]> {
@@ -199,10 +204,10 @@ fn series(inp: &Inputs, sel: &Selection) -> GapSeries {
         .iter()
         .enumerate()
         .map(|(i, (k, v))| {
-            let before = v - sig.series_sim[i];
+            let before = *v;
             let mut after = before;
             for (pos, &col) in named_cols.iter().enumerate() {
-                after -= sig.series[col][i] * sel.current.theta[pos];
+                after -= nodes.series_e[i].column(col) * sel.current.theta[pos];
             }
             (*k as f64 * dt, to3(before), to3(after))
         })

@@ -1,21 +1,31 @@
 //! The library of candidate effects: every SPEC §3 effect, parameterised
-//! as the realistic sizes suggest, with the size used to compute each
-//! parameter's signature through the simulator.
+//! as the realistic sizes suggest, each parameter with the error state
+//! whose column (from the run's own motion) is its signature.
 
-use serde::{Deserialize, Serialize};
-
+use crate::calib::effect_sensitivity::EffectParameter;
 use crate::model::effects::{BiasDrift, LeverArms};
+use crate::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
 use crate::model::Effects;
 
 /// One parameter of a candidate effect, in the effect's JSON unit.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct EffectParam {
     pub name: String,
     pub unit: String,
-    /// Size at which the signature is simulated (JSON unit). Chosen inside
-    /// the realistic range so the navigation errors stay linear but well
-    /// above rounding.
+    /// The unit of the fit's effect states (JSON unit): a realistic size,
+    /// so the states of every candidate are of one order.
     pub signature_size: f64,
+    /// The error state it is.
+    pub state: EffectParameter,
+    /// One JSON unit in SI.
+    pub si_per_unit: f64,
+}
+
+impl EffectParam {
+    /// One signature size in SI: the scale of the parameter's state.
+    pub fn signature_si(&self) -> f64 {
+        self.signature_size * self.si_per_unit
+    }
 }
 
 /// A candidate effect: its own name, the SPEC §3 effect it models, and
@@ -28,11 +38,21 @@ pub struct Candidate {
     pub params: Vec<EffectParam>,
 }
 
-fn p(name: &str, unit: &str, size: f64) -> EffectParam {
+fn p(name: &str, unit: &str, size: f64, state: EffectParameter) -> EffectParam {
+    let si_per_unit = match unit {
+        "mm" | "ms" => 1e-3,
+        "deg/h/g" => DEG_PER_H_PER_G,
+        "deg/h/h" => DEG_PER_H / HOUR,
+        "ug/h" => UG / HOUR,
+        "ppm" => PPM,
+        _ => unreachable!("no candidate parameter is in {unit}"),
+    };
     EffectParam {
         name: name.to_string(),
         unit: unit.to_string(),
         signature_size: size,
+        state,
+        si_per_unit,
     }
 }
 
@@ -53,21 +73,32 @@ fn p(name: &str, unit: &str, size: f64) -> EffectParam {
 /// - `bias_drift`: 3 gyro + 3 accelerometer drift rates (6).
 /// - `gyro_scale_asymmetry`: A per gyro (3).
 pub fn library() -> Vec<Candidate> {
+    use EffectParameter as S;
     let axes = ["x", "y", "z"];
     let mut g_sens = Vec::new();
-    for a in axes {
-        for b in axes {
-            g_sens.push(p(&format!("gyro_g_sensitivity_{a}{b}"), "deg/h/g", 0.01));
+    for (gyro, a) in axes.iter().enumerate() {
+        for (axis, b) in axes.iter().enumerate() {
+            g_sens.push(p(
+                &format!("gyro_g_sensitivity_{a}{b}"),
+                "deg/h/g",
+                0.01,
+                S::GSensitivity { gyro, axis },
+            ));
         }
     }
     // Across the axes: the six off-axis components. The full nine are not
     // all observable: moving all three sensors by one vector r is moving
     // the point they sense, whose velocity is zero at every dwell.
     let mut lever_cross = Vec::new();
-    for a in axes {
-        for b in axes {
+    for (accel, a) in axes.iter().enumerate() {
+        for (axis, b) in axes.iter().enumerate() {
             if a != b {
-                lever_cross.push(p(&format!("accel_lever_arm_{a}{b}"), "mm", 10.0));
+                lever_cross.push(p(
+                    &format!("accel_lever_arm_{a}{b}"),
+                    "mm",
+                    10.0,
+                    S::LeverArm { accel, axis },
+                ));
             }
         }
     }
@@ -77,7 +108,11 @@ pub fn library() -> Vec<Candidate> {
             effect: "accel_lever_arm",
             params: axes
                 .iter()
-                .map(|a| p(&format!("accel_lever_arm_{a}{a}"), "mm", 10.0))
+                .enumerate()
+                .map(|(i, a)| {
+                    let state = S::LeverArm { accel: i, axis: i };
+                    p(&format!("accel_lever_arm_{a}{a}"), "mm", 10.0, state)
+                })
                 .collect(),
         },
         Candidate {
@@ -93,18 +128,22 @@ pub fn library() -> Vec<Candidate> {
         Candidate {
             name: "accel_delay",
             effect: "accel_delay",
-            params: vec![p("accel_delay", "ms", 1.0)],
+            params: vec![p("accel_delay", "ms", 1.0, S::AccelDelay)],
         },
         Candidate {
             name: "bias_drift",
             effect: "bias_drift",
             params: axes
                 .iter()
-                .map(|a| p(&format!("bias_drift_gyro_{a}"), "deg/h/h", 0.01))
-                .chain(
-                    axes.iter()
-                        .map(|a| p(&format!("bias_drift_accel_{a}"), "ug/h", 10.0)),
-                )
+                .enumerate()
+                .map(|(i, a)| {
+                    let name = format!("bias_drift_gyro_{a}");
+                    p(&name, "deg/h/h", 0.01, S::GyroBiasDrift(i))
+                })
+                .chain(axes.iter().enumerate().map(|(i, a)| {
+                    let name = format!("bias_drift_accel_{a}");
+                    p(&name, "ug/h", 10.0, S::AccelBiasDrift(i))
+                }))
                 .collect(),
         },
         Candidate {
@@ -112,7 +151,11 @@ pub fn library() -> Vec<Candidate> {
             effect: "gyro_scale_asymmetry",
             params: axes
                 .iter()
-                .map(|a| p(&format!("gyro_scale_asymmetry_{a}"), "ppm", 50.0))
+                .enumerate()
+                .map(|(i, a)| {
+                    let name = format!("gyro_scale_asymmetry_{a}");
+                    p(&name, "ppm", 50.0, S::GyroScaleAsymmetry(i))
+                })
                 .collect(),
         },
     ]

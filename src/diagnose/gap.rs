@@ -2,39 +2,37 @@
 //! carry effect parameters and to report its residuals.
 //!
 //! The measured run is compensated with the calibration and navigated
-//! open loop; the simulated run (the reconstructed scheme, the calibrated
-//! model, no noise) goes through the same compensation and navigation.
-//! Nodes are placed in every dwell (a few per dwell, as in `calib::lsq`);
-//! the gap at a node is the measured minus the simulated velocity. Over
-//! each stretch between nodes (a piece of a dwell, or a rotation step)
+//! open loop. At rest its velocity is zero, so the navigated velocity at
+//! nodes in the dwells is the gap itself: what the calibrated model has
+//! not explained. Nodes are placed in every dwell (a few per dwell, as in
+//! `calib::lsq`); over each stretch between nodes (a piece of a dwell, or
+//! a rotation step)
 //!
 //!   r_k = x_{k+1} − A_k x_k − B_k δp − E_k θ,   x = [φ; δv],
 //!
-//! with B_k the base parameters' columns accumulated record by record and
-//! E_k the effect parameters' columns, computed through the simulator:
-//! the navigation error that a noise-free run carrying one effect
-//! parameter at its signature size makes against the run without it,
-//! sampled at the nodes, e_{k+1} − A_k e_k. The attitude errors φ_k at
-//! the nodes are unknowns, the attitude random walk the process noise; the
-//! weighted residual cost Σ r_kᵀ Q_k⁻¹ r_k is the likelihood of model
-//! selection, and its expectation under noise alone (from the residual
-//! covariance Q_k − L_k N⁻¹ L_kᵀ) the noise floor.
-
-use std::sync::atomic::{AtomicBool, Ordering};
+//! with B_k the base parameters' columns and E_k the effect parameters'
+//! columns, both accumulated record by record along the motion the run
+//! measured (`calib::sensitivity`, `calib::effect_sensitivity`): each
+//! effect's signature is that effect applied to what actually happened,
+//! through the same compensation and navigation, so hand flips, wobbling
+//! axes and a reference point that moves between dwells need no model of
+//! the scheme. The attitude errors φ_k at the nodes are unknowns, the
+//! attitude random walk the process noise; the weighted residual cost
+//! Σ r_kᵀ Q_k⁻¹ r_k is the likelihood of model selection, and its
+//! expectation under noise alone (from the residual covariance
+//! Q_k − L_k N⁻¹ L_kᵀ) the noise floor.
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::error::DiagnoseError;
-use crate::calib::filter::{error_dynamics, NAV};
+use crate::calib::effect_sensitivity::{EffectParameter, EffectTerms};
+use crate::calib::filter::{error_dynamics, transition, NAV};
 use crate::calib::nodes::{walk_nodes, Stretch};
 use crate::calib::normal::NormalEquations;
 use crate::calib::priors::{start_attitude_information, white_noise_density};
 use crate::calib::walk::PassContext;
 use crate::calib::CalibError;
-use crate::model::{Compensator, Effects, ErrorParameters, N_PARAMS};
-use crate::nav::attitude::attitude_difference_n;
-use crate::nav::{Site, Strapdown};
-use crate::sim::{simulate, Noise, Scheme, SimConfig};
+use crate::model::{ErrorParameters, N_PARAMS};
 
 /// Prior σ of a scaled effect parameter: a hundred signature sizes, so
 /// the prior only keeps an unobservable combination finite.
@@ -52,214 +50,100 @@ pub struct Nodes {
     /// Base columns of the stretch ending at each node (6 × 24, scaled by
     /// the prior σ); zero for the first node.
     pub b: Vec<DMatrix<f64>>,
+    /// Effect columns of the stretch ending at each node (6 × effect
+    /// parameters, per signature size); zero for the first node.
+    pub e: Vec<DMatrix<f64>>,
     /// Segment index (dwell) of each node.
     pub segment: Vec<usize>,
     /// 1 Hz open-loop measured velocity: (record number, v).
     pub series: Vec<(u64, Vector3<f64>)>,
+    /// At each 1 Hz sample, the open-loop velocity each effect parameter
+    /// makes per signature size (3 × effect parameters).
+    pub series_e: Vec<DMatrix<f64>>,
+    /// The navigated attitude at the run's end.
+    pub c_b_n_end: Matrix3<f64>,
 }
 
-/// Walks the measured run once, compensated with `params`, from `c_b_n0`.
+/// Walks the measured run once, compensated with `params`, from
+/// `c_b_n0`, accumulating the columns of the effect parameters `effects`
+/// (each with the SI size of its unit) beside the base ones.
 pub(crate) fn measured_nodes(
     ctx: &PassContext,
     params: &ErrorParameters,
     c_b_n0: &Matrix3<f64>,
+    effects: &[(EffectParameter, f64)],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Nodes, CalibError> {
     let comp = params.compensator();
     let dt = 1.0 / ctx.run.sample_rate_hz;
     let rec_no = |t: f64| ((t - ctx.scan.t_begin) / dt).round() as u64;
     let window_s = ctx.window() as f64 * dt;
+    let n_e = effects.len();
+    let (states, scale): (Vec<_>, Vec<f64>) = effects.iter().copied().unzip();
+    let terms = EffectTerms {
+        states,
+        scale,
+        removed: Vec::new(),
+    };
+    let site = &ctx.run.site;
+    let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
     let mut nodes = Nodes {
         t: vec![ctx.scan.t_begin],
         record: vec![0],
         v: vec![Vector3::zeros()],
         b: vec![DMatrix::zeros(NAV, N_PARAMS)],
+        e: vec![DMatrix::zeros(NAV, n_e)],
         segment: vec![0],
         series: vec![(0, Vector3::zeros())],
+        series_e: vec![DMatrix::zeros(3, n_e)],
+        c_b_n_end: *c_b_n0,
     };
-    walk_nodes(ctx, &comp, c_b_n0, window_s, progress, |w, node| {
-        nodes.series.push((rec_no(w.t_end), w.nav.v_n));
-        if let Some((d, b)) = node {
-            nodes.t.push(w.t_end);
-            nodes.record.push(rec_no(w.t_end));
-            nodes.v.push(w.nav.v_n);
-            nodes.b.push(b);
-            nodes.segment.push(d);
-        }
-    })?;
+    // The effects' open-loop navigation error at the last node.
+    let mut at_node = DMatrix::<f64>::zeros(NAV, n_e);
+    let mut t_node = ctx.scan.t_begin;
+    walk_nodes(
+        ctx,
+        &comp,
+        c_b_n0,
+        window_s,
+        &terms,
+        progress,
+        |w, since_node, node| {
+            let e_since = since_node.columns(N_PARAMS, n_e);
+            let a = transition(&f, w.t_end - t_node);
+            let a = DMatrix::from_column_slice(NAV, NAV, a.as_slice());
+            let now = &a * &at_node + e_since;
+            nodes.series.push((rec_no(w.t_end), w.nav.v_n));
+            nodes.series_e.push(now.rows(3, 3).into_owned());
+            nodes.c_b_n_end = w.nav.c_b_n();
+            if let Some(d) = node {
+                nodes.t.push(w.t_end);
+                nodes.record.push(rec_no(w.t_end));
+                nodes.v.push(w.nav.v_n);
+                nodes.b.push(since_node.columns(0, N_PARAMS).into_owned());
+                nodes.e.push(e_since.into_owned());
+                nodes.segment.push(d);
+                at_node = now;
+                t_node = w.t_end;
+            }
+        },
+    )?;
     if nodes.t.len() < 3 {
         return Err(CalibError::Unusable("too few dwells for the gap".into()));
     }
     Ok(nodes)
 }
 
-/// A noise-free simulated run navigated like the measured one, sampled
-/// at the nodes and at 1 Hz.
-struct SimNav {
-    c: Vec<Matrix3<f64>>,
-    v: Vec<Vector3<f64>>,
-    series: Vec<Vector3<f64>>,
+/// Where the delay's columns sit in the stretches' effect columns.
+#[derive(Clone, Copy, Debug)]
+pub struct DelayColumns {
+    pub first_order: usize,
+    pub second_order: usize,
 }
 
-/// What every simulation of the reconstructed scheme shares.
-pub struct SimSetup<'a> {
-    pub site: Site,
-    pub sample_rate_hz: f64,
-    pub scheme: &'a Scheme,
-    pub params: ErrorParameters,
-    pub c_b_n0: Matrix3<f64>,
-    pub cancel: &'a AtomicBool,
-}
-
-/// A noise-free simulation of `scheme` starting at attitude `c_b_n0`.
-pub(crate) fn noise_free_run(
-    site: Site,
-    sample_rate_hz: f64,
-    scheme: Scheme,
-    params: ErrorParameters,
-    effects: Effects,
-    c_b_n0: &Matrix3<f64>,
-) -> SimConfig {
-    // The simulator starts from the nominal attitude turned by this
-    // rotation vector, so the whole start attitude goes in as the "error".
-    let phi0 = crate::nav::attitude::dcm_to_rotvec(c_b_n0);
-    SimConfig {
-        site,
-        sample_rate_hz,
-        scheme,
-        params,
-        effects,
-        noise: Noise::default(),
-        initial_attitude_error_deg: phi0.map(f64::to_degrees).into(),
-        seed: 0,
-    }
-}
-
-fn simulate_nav(
-    s: &SimSetup,
-    effects: Effects,
-    node_records: &[u64],
-    series_records: &[u64],
-) -> Result<SimNav, DiagnoseError> {
-    let cfg = noise_free_run(
-        s.site,
-        s.sample_rate_hz,
-        s.scheme.clone(),
-        s.params,
-        effects,
-        &s.c_b_n0,
-    );
-    let dt = 1.0 / s.sample_rate_hz;
-    let comp: Compensator = s.params.compensator();
-    let mut nav = Strapdown::new(&s.site, &s.c_b_n0, 0.0, dt);
-    let mut out = SimNav {
-        c: Vec::with_capacity(node_records.len()),
-        v: Vec::with_capacity(node_records.len()),
-        series: Vec::with_capacity(series_records.len()),
-    };
-    let (mut ni, mut si) = (0, 0);
-    let mut sample = |k: u64, nav: &Strapdown, out: &mut SimNav| {
-        while ni < node_records.len() && node_records[ni] <= k {
-            out.c.push(nav.c_b_n());
-            out.v.push(nav.v_n);
-            ni += 1;
-        }
-        while si < series_records.len() && series_records[si] <= k {
-            out.series.push(nav.v_n);
-            si += 1;
-        }
-    };
-    sample(0, &nav, &mut out);
-    let sim = simulate(&cfg).map_err(|e| DiagnoseError::Scheme(e.to_string()))?;
-    for (k, r) in sim.enumerate() {
-        if k % 65_536 == 0 && s.cancel.load(Ordering::Relaxed) {
-            return Err(DiagnoseError::Calib(CalibError::Cancelled));
-        }
-        nav.update(&comp.record(&r, dt));
-        sample(k as u64 + 1, &nav, &mut out);
-    }
-    // A reconstructed scheme a record short of the data: hold the last.
-    while out.c.len() < node_records.len() {
-        out.c.push(nav.c_b_n());
-        out.v.push(nav.v_n);
-    }
-    while out.series.len() < series_records.len() {
-        out.series.push(nav.v_n);
-    }
-    Ok(out)
-}
-
-/// The reference simulation and every effect parameter's signature.
-pub struct Signatures {
-    /// Simulated open-loop velocity at the nodes (the prediction).
-    pub v_sim: Vec<Vector3<f64>>,
-    /// Simulated velocity at the 1 Hz series' samples.
-    pub series_sim: Vec<Vector3<f64>>,
-    /// Per effect parameter (library order): navigation error at each
-    /// node per signature size.
-    pub x: Vec<Vec<Vector6<f64>>>,
-    /// Per effect parameter: the velocity error at the 1 Hz samples.
-    pub series: Vec<Vec<Vector3<f64>>>,
-}
-
-/// Simulates the reference run and one run per effect parameter.
-pub fn signatures(
-    s: &SimSetup,
-    nodes: &Nodes,
-    effects: &[Effects],
-    progress: &mut dyn FnMut(f64),
-) -> Result<Signatures, DiagnoseError> {
-    let series_records: Vec<u64> = nodes.series.iter().map(|x| x.0).collect();
-    let base = simulate_nav(s, Effects::none(), &nodes.record, &series_records)?;
-    let mut out = Signatures {
-        v_sim: base.v.clone(),
-        series_sim: base.series.clone(),
-        x: Vec::with_capacity(effects.len()),
-        series: Vec::with_capacity(effects.len()),
-    };
-    // Two threads: the simulations are independent and each streams.
-    let results: Vec<Result<SimNav, DiagnoseError>> = std::thread::scope(|scope| {
-        let half = effects.len().div_ceil(2);
-        let (a, b) = effects.split_at(half);
-        let (nr, sr) = (&nodes.record, &series_records);
-        let h = scope.spawn(move || {
-            b.iter()
-                .map(|e| simulate_nav(s, *e, nr, sr))
-                .collect::<Vec<_>>()
-        });
-        let mut first: Vec<_> = Vec::with_capacity(effects.len());
-        for (i, e) in a.iter().enumerate() {
-            first.push(simulate_nav(s, *e, nr, sr));
-            progress((i + 1) as f64 / a.len().max(1) as f64);
-        }
-        let second = h.join().unwrap_or_else(|_| {
-            vec![Err(DiagnoseError::Scheme(
-                "a simulation thread failed".into(),
-            ))]
-        });
-        first.extend(second);
-        first
-    });
-    for r in results {
-        let sim = r?;
-        let x = (0..nodes.t.len())
-            .map(|k| {
-                let phi = attitude_difference_n(&sim.c[k], &base.c[k]);
-                let dv = sim.v[k] - base.v[k];
-                Vector6::new(phi.x, phi.y, phi.z, dv.x, dv.y, dv.z)
-            })
-            .collect();
-        let series = sim
-            .series
-            .iter()
-            .zip(base.series.iter())
-            .map(|(a, b)| a - b)
-            .collect();
-        out.x.push(x);
-        out.series.push(series);
-    }
-    Ok(out)
-}
+/// Gauss–Newton steps about the delay's estimate: the second-order term
+/// is 1 % of the signature, so each step gains two digits.
+const DELAY_RELINEARISATIONS: usize = 2;
 
 /// One stretch between nodes, ready for the normal equations: the error
 /// model over it (whose d is the gap's part) and the parameter columns.
@@ -274,6 +158,10 @@ struct GapStretch {
 /// The gap problem: every stretch, fit with any subset of effect columns.
 pub struct GapProblem {
     stretches: Vec<GapStretch>,
+    /// The delay's column and its second-order column (per squared
+    /// signature size), when the library has a delay: a fit carrying the
+    /// delay relinearises about its estimate.
+    delay: Option<DelayColumns>,
     p0_phi_inv: Matrix3<f64>,
     n_nodes: usize,
 }
@@ -342,11 +230,12 @@ impl GapFit {
 }
 
 impl GapProblem {
+    /// The problem over `nodes`, whose effect columns hold the library's
+    /// and, where `delay` says, the delay's second-order column.
     pub(crate) fn new(
         ctx: &PassContext,
         nodes: &Nodes,
-        sig: &Signatures,
-        n_effect_params: usize,
+        delay: Option<DelayColumns>,
     ) -> Result<Self, DiagnoseError> {
         let site = &ctx.run.site;
         let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
@@ -355,35 +244,65 @@ impl GapProblem {
         let qc = white_noise_density(ctx.arw, ctx.vrw);
         let k_nodes = nodes.t.len();
         let mut stretches = Vec::with_capacity(k_nodes - 1);
-        let gap = |k: usize| nodes.v[k] - sig.v_sim[k];
         for k in 0..k_nodes - 1 {
             let t = nodes.t[k + 1] - nodes.t[k];
-            let model = Stretch::new(&f, &qc, t, &gap(k), &gap(k + 1))
+            let model = Stretch::new(&f, &qc, t, &nodes.v[k], &nodes.v[k + 1])
                 .ok_or_else(|| DiagnoseError::Numerical("singular process noise".into()))?;
-            let a = model.a;
-            let mut e = DMatrix::<f64>::zeros(6, n_effect_params);
-            for j in 0..n_effect_params {
-                let col = sig.x[j][k + 1] - a * sig.x[j][k];
-                for i in 0..6 {
-                    e[(i, j)] = -col[i];
-                }
-            }
             stretches.push(GapStretch {
                 model,
                 b: -&nodes.b[k + 1],
-                e,
+                e: -&nodes.e[k + 1],
             });
         }
         Ok(GapProblem {
             stretches,
+            delay,
             p0_phi_inv,
             n_nodes: k_nodes,
         })
     }
 
     /// Fits the base parameters, the effect parameters `effects` (library
-    /// indices) and the attitude at every node.
+    /// indices) and the attitude at every node. A fit carrying the delay
+    /// is relinearised about its estimate θ̂: on the measured records the
+    /// delay contributes θ E₁ − θ² E₂ (`EffectParameter::AccelDelaySquared`),
+    /// which near θ̂ is θ (E₁ − 2θ̂ E₂) + θ̂² E₂.
     pub fn fit(&self, effects: &[usize]) -> Result<GapFit, DiagnoseError> {
+        let mut fit = self.fit_about(effects, 0.0)?;
+        let delay = self.delay.and_then(|d| {
+            let pos = effects.iter().position(|&j| j == d.first_order)?;
+            Some(pos)
+        });
+        if let Some(pos) = delay {
+            for _ in 0..DELAY_RELINEARISATIONS {
+                fit = self.fit_about(effects, fit.theta[pos])?;
+            }
+        }
+        Ok(fit)
+    }
+
+    /// The stretch's column of effect `j`, and its data, with the delay's
+    /// linearised about `delay_at` (signature sizes).
+    fn linearised(&self, s: &GapStretch, j: usize, delay_at: f64) -> DVector<f64> {
+        match self.delay {
+            Some(d) if j == d.first_order && delay_at != 0.0 => {
+                s.e.column(j) - s.e.column(d.second_order) * (2.0 * delay_at)
+            }
+            _ => s.e.column(j).into_owned(),
+        }
+    }
+
+    fn data(&self, s: &GapStretch, effects: &[usize], delay_at: f64) -> DVector<f64> {
+        match self.delay {
+            Some(d) if delay_at != 0.0 && effects.contains(&d.first_order) => {
+                // s.e holds −E: the known part θ̂² E₂ moves into the data.
+                &s.model.d + s.e.column(d.second_order) * (delay_at * delay_at)
+            }
+            _ => s.model.d.clone(),
+        }
+    }
+
+    fn fit_about(&self, effects: &[usize], delay_at: f64) -> Result<GapFit, DiagnoseError> {
         let n_p = N_PARAMS;
         let n_e = effects.len();
         let phi = |k: usize| n_p + n_e + 3 * k;
@@ -399,14 +318,16 @@ impl GapProblem {
             let mut l = DMatrix::<f64>::zeros(6, n_p + n_e + 6);
             l.view_mut((0, 0), (6, n_p)).copy_from(&s.b);
             for (c, &j) in effects.iter().enumerate() {
-                l.view_mut((0, n_p + c), (6, 1)).copy_from(&s.e.column(j));
+                l.view_mut((0, n_p + c), (6, 1))
+                    .copy_from(&self.linearised(s, j, delay_at));
             }
             s.model.attitude_columns(&mut l, n_p + n_e);
             let _ = k;
             l
         };
         for (k, s) in self.stretches.iter().enumerate() {
-            normal.add_observation(&local(k), &design(k, s), &s.model.w, &s.model.d);
+            let d = self.data(s, effects, delay_at);
+            normal.add_observation(&local(k), &design(k, s), &s.model.w, &d);
         }
         let sol = normal.solve().ok_or_else(|| {
             DiagnoseError::Numerical("the gap's normal equations are singular".into())
@@ -422,7 +343,7 @@ impl GapProblem {
             let l = design(k, s);
             let idx = local(k);
             let u_loc = DVector::from_iterator(idx.len(), idx.iter().map(|&i| u[i]));
-            let r = &l * &u_loc + &s.model.d;
+            let r = &l * &u_loc + self.data(s, effects, delay_at);
             let chi2_k = (r.transpose() * &s.model.w * &r)[(0, 0)];
             chi2 += chi2_k;
             let c_loc = DMatrix::from_fn(idx.len(), idx.len(), |a, b| cov[(idx[a], idx[b])]);

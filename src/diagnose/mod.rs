@@ -4,13 +4,16 @@
 //! is left once that effect is modelled.
 //!
 //! 1. Calibrate with the base model (`calib::estimate`).
-//! 2. Reconstruct the scheme from the gyro data (`reconstruct`), simulate
-//!    it from the calibration without noise, navigate the measured and
-//!    the simulated run the same way and form the gap at nodes in the
-//!    dwells (`gap`): each dwell's drift and each rotation's velocity
-//!    step, with its covariance under noise alone.
-//! 3. Fit every candidate effect's signature (simulated, one run per
-//!    parameter) jointly with the base parameters; score by BIC; name the
+//! 2. Navigate the measured run from the calibration, open loop, and form
+//!    the gap at nodes in the dwells (`gap`): each dwell's drift and each
+//!    turn's velocity step, with its covariance under noise alone. On the
+//!    same walk, accumulate every candidate effect's columns from the
+//!    motion the run measured (`calib::effect_sensitivity`): no model of
+//!    the scheme is needed, so hand flips and tilted axes are diagnosed
+//!    like table turns. The scheme is reconstructed (`reconstruct`) only
+//!    to describe the run and pace a proposed probe turn.
+//! 3. Fit every candidate effect's signature jointly with the base
+//!    parameters; score by BIC; name the
 //!    best when it beats "no effect" by a clear margin; say when two
 //!    candidates cannot be told apart (and which turn would part them,
 //!    `separate`); iterate until nothing significant remains (`select`,
@@ -43,14 +46,14 @@ pub mod verdict;
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 
+use crate::calib::effect_sensitivity::EffectParameter;
 use crate::calib::estimate::estimate_scanned;
 use crate::calib::prescan::scan_run;
 use crate::calib::priors::prior_sigma;
 use crate::calib::walk::{align_start, PassContext};
 use crate::calib::{Progress, RecordSource, RunInfo};
-use crate::model::{Effects, ErrorParameters};
-use candidates::unit_effect;
-use gap::{GapProblem, SimSetup};
+use crate::model::ErrorParameters;
+use gap::{DelayColumns, GapProblem};
 use library::Library;
 use localise::stretch_kinds;
 
@@ -89,7 +92,7 @@ pub fn diagnose(
             stage: s.to_string(),
         })
     }
-    stage(progress, 0.4, "reconstructing the scheme");
+    stage(progress, 0.4, "describing the run's turns");
     let canonical: BTreeMap<String, f64> = base_cal
         .parameters
         .iter()
@@ -98,38 +101,35 @@ pub fn diagnose(
     let params = ErrorParameters::from_canonical(&canonical)
         .map_err(|e| DiagnoseError::Numerical(e.to_string()))?;
     let c_b_n0 = align_start(&ctx, &params.compensator())?;
-    let recon = reconstruct::reconstruct(
+    // Only describes the run and sets the pace of a proposed probe turn:
+    // a run whose turns fit no scheme (by hand, about tilted axes) is
+    // diagnosed all the same.
+    let recon = match reconstruct::reconstruct(
         source,
         &scan,
         run.sample_rate_hz,
         &params.compensator(),
         &c_b_n0,
-    )?;
-    stage(progress, 0.45, "navigating the measured run");
-    let nodes = gap::measured_nodes(&ctx, &params, &c_b_n0, &mut |_| {})?;
+    ) {
+        Ok(r) => Ok(r),
+        Err(DiagnoseError::Scheme(why)) => Err(why),
+        Err(e) => return Err(e),
+    };
 
     let lib = Library::new();
-    let unit_effects: Vec<Effects> = lib
-        .candidates
-        .iter()
-        .flat_map(|c| (0..c.params.len()).map(move |j| unit_effect(c, j)))
-        .collect();
-    let setup = SimSetup {
-        site: run.site,
-        sample_rate_hz: run.sample_rate_hz,
-        scheme: &recon.scheme,
-        params,
-        c_b_n0,
-        cancel,
-    };
-    stage(progress, 0.5, "simulating the candidates' signatures");
-    let sig = gap::signatures(&setup, &nodes, &unit_effects, &mut |f| {
+    let (columns, delay) = effect_columns(&lib);
+    stage(
+        progress,
+        0.45,
+        "navigating the run with every candidate's columns",
+    );
+    let nodes = gap::measured_nodes(&ctx, &params, &c_b_n0, &columns, &mut |f| {
         progress(Progress {
-            fraction: 0.5 + 0.4 * f,
-            stage: "simulating the candidates' signatures".into(),
+            fraction: 0.45 + 0.45 * f,
+            stage: "navigating the run with every candidate's columns".into(),
         })
     })?;
-    let problem = GapProblem::new(&ctx, &nodes, &sig, lib.n)?;
+    let problem = GapProblem::new(&ctx, &nodes, delay)?;
     let prior = prior_sigma(opts.estimate.prior_scale);
     stage(progress, 0.9, "selecting effects");
 
@@ -140,8 +140,8 @@ pub fn diagnose(
         params: &params,
         prior: &prior,
         ctx: &ctx,
-        recon: &recon,
-        c_b_n0,
+        recon: recon.as_ref().ok(),
+        c_b_n_end: nodes.c_b_n_end,
     })?;
     let kinds = stretch_kinds(&nodes, &scan.segments);
     let report = assemble::report(
@@ -150,7 +150,6 @@ pub fn diagnose(
             lib: &lib,
             problem: &problem,
             nodes: &nodes,
-            sig: &sig,
             kinds: &kinds,
             t0: scan.t_begin,
             t_total: scan.t_end - scan.t_begin,
@@ -164,6 +163,30 @@ pub fn diagnose(
     );
     stage(progress, 1.0, "done");
     Ok(report)
+}
+
+/// The effect states the gap needs, each with the SI size of its unit:
+/// every library parameter at its signature size, then the delay's
+/// second-order term (per squared signature size) after them.
+fn effect_columns(lib: &Library) -> (Vec<(EffectParameter, f64)>, Option<DelayColumns>) {
+    let mut columns: Vec<(EffectParameter, f64)> = lib
+        .candidates
+        .iter()
+        .flat_map(|c| c.params.iter())
+        .map(|p| (p.state, p.signature_si()))
+        .collect();
+    let delay = columns
+        .iter()
+        .position(|(s, _)| *s == EffectParameter::AccelDelay)
+        .map(|first_order| {
+            let size = columns[first_order].1;
+            columns.push((EffectParameter::AccelDelaySquared, size * size));
+            DelayColumns {
+                first_order,
+                second_order: columns.len() - 1,
+            }
+        });
+    (columns, delay)
 }
 
 /// The candidates' names, in library order.

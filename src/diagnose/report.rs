@@ -106,7 +106,7 @@ pub struct DiagnoseStep {
 }
 
 /// Gap time series: node residuals (m/s) before and after, and the open-
-/// loop velocity difference measured − simulated at 1 Hz (decimated).
+/// loop velocity at 1 Hz (decimated), which at rest is the gap.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct GapSeries {
     /// Node times from the run's start, s.
@@ -114,9 +114,9 @@ pub struct GapSeries {
     pub before: Vec<[f64; 3]>,
     pub after: Vec<[f64; 3]>,
     pub open_loop_t: Vec<f64>,
-    /// Measured − simulated from the base calibration.
+    /// Navigated from the base calibration.
     pub open_loop_before: Vec<[f64; 3]>,
-    /// The same less the named effects' simulated contribution.
+    /// The same less the named effects' contribution.
     pub open_loop_after: Vec<[f64; 3]>,
 }
 
@@ -152,7 +152,11 @@ pub struct DiagnoseReport {
     pub effects: Effects,
     /// The base-model calibration the workflow started from.
     pub base_calibration: CalibrationResult,
-    pub scheme: Reconstruction,
+    /// The run's turns described as a scheme, when they can be (turns
+    /// about body or navigation axes); the diagnosis itself does not
+    /// need it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scheme: Option<Reconstruction>,
     pub steps: Vec<DiagnoseStep>,
     pub segments_before: Vec<SegmentGap>,
     pub segments_after: Vec<SegmentGap>,
@@ -186,11 +190,13 @@ impl DiagnoseReport {
             self.z_before,
             self.z_after
         );
-        let _ = writeln!(
-            o,
-            "reconstructed scheme: {} rotations",
-            self.scheme.rotations.len()
-        );
+        if let Some(scheme) = &self.scheme {
+            let _ = writeln!(
+                o,
+                "reconstructed scheme: {} rotations",
+                scheme.rotations.len()
+            );
+        }
         for (i, s) in self.steps.iter().enumerate() {
             let _ = writeln!(
                 o,

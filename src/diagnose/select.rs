@@ -34,11 +34,12 @@ pub(crate) struct Selector<'a> {
     /// that scale the fits' base corrections.
     pub params: &'a ErrorParameters,
     pub prior: &'a [f64],
-    /// Where turns that would part two candidates are probed: after the
-    /// reconstructed scheme, from the start attitude `c_b_n0`.
+    /// Where turns that would part two candidates are probed: from the
+    /// run's last attitude `c_b_n_end`, at the reconstructed scheme's
+    /// median rate and dwell when there is one.
     pub ctx: &'a PassContext<'a>,
-    pub recon: &'a Reconstruction,
-    pub c_b_n0: Matrix3<f64>,
+    pub recon: Option<&'a Reconstruction>,
+    pub c_b_n_end: Matrix3<f64>,
 }
 
 /// What was decided at one step.
@@ -304,7 +305,7 @@ fn separate_rivals(
     bi: usize,
     rivals: &[(usize, f64)],
 ) -> Result<(Vec<String>, Vec<SeparatingTurn>), DiagnoseError> {
-    let probe = probe_context(s.ctx, s.recon, s.params, &s.c_b_n0)?;
+    let probe = probe_context(s.ctx, s.recon, s.params, &s.c_b_n_end);
     let with = |c: usize| -> Vec<usize> { named.iter().copied().chain([c]).collect() };
     let (best_c, best_fit) = &fits[bi];
     let best = &scores[bi];
@@ -353,17 +354,15 @@ fn rival_hint(
     }
 }
 
-/// Where a turn appended to the run would start (the scheme's last
-/// attitude) and how it would run (the scheme's median rate, acceleration
-/// and dwell).
+/// Where a turn appended to the run would start (the run's last
+/// attitude) and how it would run (the reconstructed scheme's median
+/// rate, acceleration and dwell, else a gentle table turn).
 fn probe_context<'a>(
     ctx: &PassContext<'a>,
-    recon: &Reconstruction,
+    recon: Option<&Reconstruction>,
     params: &'a ErrorParameters,
-    c_b_n0: &Matrix3<f64>,
-) -> Result<separate::ProbeContext<'a>, DiagnoseError> {
-    let trajectory = crate::sim::trajectory::Trajectory::new(&recon.scheme, c_b_n0, &ctx.run.site)
-        .map_err(DiagnoseError::Scheme)?;
+    c_b_n_end: &Matrix3<f64>,
+) -> separate::ProbeContext<'a> {
     let median = |mut v: Vec<f64>, default: f64| -> f64 {
         if v.is_empty() {
             return default;
@@ -371,19 +370,19 @@ fn probe_context<'a>(
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    let rotations = recon.map_or(&[][..], |r| &r.rotations[..]);
     let rate_dps = median(
-        recon.rotations.iter().map(|r| r.rate_dps).collect(),
+        rotations.iter().map(|r| r.rate_dps).collect(),
         DEFAULT_PROBE_RATE_DPS,
     );
     let accel_dps2 = median(
-        recon.rotations.iter().map(|r| r.accel_dps2).collect(),
+        rotations.iter().map(|r| r.accel_dps2).collect(),
         DEFAULT_PROBE_ACCEL_DPS2,
     );
     let dwell_s = median(
         recon
-            .scheme
-            .steps
             .iter()
+            .flat_map(|r| r.scheme.steps.iter())
             .filter_map(|s| match s {
                 crate::sim::scheme::Step::Dwell { dwell_s } => Some(*dwell_s),
                 _ => None,
@@ -391,10 +390,10 @@ fn probe_context<'a>(
             .collect(),
         DEFAULT_PROBE_DWELL_S,
     );
-    Ok(separate::ProbeContext {
+    separate::ProbeContext {
         site: ctx.run.site,
         sample_rate_hz: ctx.run.sample_rate_hz,
-        c_b_n_start: trajectory.c_b_n_end(),
+        c_b_n_start: *c_b_n_end,
         compensation: params,
         rate_dps,
         accel_dps2,
@@ -402,5 +401,5 @@ fn probe_context<'a>(
         arw: ctx.arw,
         vrw: ctx.vrw,
         cancel: ctx.cancel,
-    })
+    }
 }

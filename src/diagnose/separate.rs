@@ -25,7 +25,7 @@ use crate::model::{Effects, ErrorParameters};
 use crate::nav::{Site, Strapdown};
 use crate::sim::profile::RotationProfile;
 use crate::sim::scheme::{Axis, Rotate, Step};
-use crate::sim::{simulate, Scheme};
+use crate::sim::{simulate, Noise, Scheme, SimConfig};
 
 /// Rest before the probe's turn, s.
 const LEAD_IN_S: f64 = 2.0;
@@ -127,12 +127,36 @@ fn turn_duration(rotate: Rotate) -> f64 {
     .duration()
 }
 
+/// A noise-free simulation of `scheme` starting at attitude `c_b_n0`.
+fn noise_free_run(
+    site: Site,
+    sample_rate_hz: f64,
+    scheme: Scheme,
+    params: ErrorParameters,
+    effects: Effects,
+    c_b_n0: &Matrix3<f64>,
+) -> SimConfig {
+    // The simulator starts from the nominal attitude turned by this
+    // rotation vector, so the whole start attitude goes in as the "error".
+    let phi0 = crate::nav::attitude::dcm_to_rotvec(c_b_n0);
+    SimConfig {
+        site,
+        sample_rate_hz,
+        scheme,
+        params,
+        effects,
+        noise: Noise::default(),
+        initial_attitude_error_deg: phi0.map(f64::to_degrees).into(),
+        seed: 0,
+    }
+}
+
 fn predict(
     ctx: &ProbeContext,
     expl: &Explanation,
     rotate: Rotate,
 ) -> Result<Prediction, DiagnoseError> {
-    let cfg = super::gap::noise_free_run(
+    let cfg = noise_free_run(
         ctx.site,
         ctx.sample_rate_hz,
         probe_scheme(rotate, ctx.dwell_s),

@@ -80,6 +80,17 @@ impl Compensator {
         dv
     }
 
+    /// ∂Δv_meas/∂Δv at the true increment `dv` (SPEC §2): I + K_a +
+    /// 2 diag(D_a∘Δv)/Δt. An error that enters accelerometer i's own
+    /// sensed increment as x_i reaches the compensated record as
+    /// J⁻¹ [row_i(J) x_i]_i, which is x itself only when every
+    /// accelerometer senses the same x.
+    pub fn accel_jacobian(&self, dv: &Vector3<f64>, dt: f64) -> Matrix3<f64> {
+        Matrix3::identity()
+            + self.params.k_a()
+            + Matrix3::from_diagonal(&(self.d_a.component_mul(dv) * (2.0 / dt)))
+    }
+
     /// A compensated copy of `rec`, whose interval is `dt`.
     pub fn record(&self, rec: &Record, dt: f64) -> Record {
         let dtheta = self.gyro(&Vector3::from(rec.dtheta), dt);
