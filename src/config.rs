@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use crate::calib::EstimateOptions;
+use crate::calib::{ErrorModel, EstimateOptions};
 use crate::model::{Group, PARAMETERS};
 
 /// The embedded defaults: what `serve` uses with neither a flag nor its
@@ -97,6 +97,11 @@ pub struct ServeArgs {
     #[arg(long, env = "SINSCAL_SHUTDOWN_GRACE_SECS",
           default_value_t = defaults::SHUTDOWN_GRACE_SECS)]
     pub shutdown_grace_secs: f64,
+    /// The error model of every calibrate job: `base`, or `base+` SPEC §3
+    /// effects joined by `+` (e.g. `base+accel_lever_arm+accel_delay`),
+    /// estimated as filter states beside the 24 parameters.
+    #[arg(long, env = "SINSCAL_MODEL", default_value = "base")]
+    pub model: ErrorModel,
     /// Queue a diagnose job for every run whose calibration fails its
     /// model check (`true` or `false`).
     #[arg(long, env = "SINSCAL_DIAGNOSE_INADEQUATE",
@@ -274,6 +279,7 @@ impl Config {
         }
         c.max_attempts = a.max_attempts;
         c.diagnose_inadequate = a.diagnose_inadequate;
+        c.estimate.model = a.model.clone();
         c.shutdown_grace = seconds_flag("shutdown-grace-secs", a.shutdown_grace_secs, 0.0)?;
         c.upload_pace = BodyPace {
             idle: seconds_flag("upload-idle-secs", a.upload_idle_secs, 0.1)?,

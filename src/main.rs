@@ -10,7 +10,7 @@ use sinscal::io::data::DataFormat;
 use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::{EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal::calib::{ErrorModel, EstimateOptions, EstimatorKind, NoiseDensity};
 use sinscal::design::{design, Axes, DesignRequest, Target};
 use sinscal::diagnose::plot::gap_svg;
 use sinscal::diagnose::DiagnoseOptions;
@@ -101,6 +101,11 @@ struct CalibrateArgs {
     /// Skip the cross-check with the other estimator.
     #[arg(long)]
     no_cross_check: bool,
+    /// The error model: `base`, or `base+` SPEC §3 effects joined by `+`
+    /// (e.g. `base+accel_lever_arm+accel_delay`), estimated as filter
+    /// states beside the 24 parameters.
+    #[arg(long, default_value = "base")]
+    model: ErrorModel,
 }
 
 #[derive(clap::Args)]
@@ -350,6 +355,7 @@ fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
     let opts = EstimateOptions {
         estimator: a.estimator,
         cross_check: !a.no_cross_check,
+        model: a.model,
         ..EstimateOptions::default()
     };
     let cancel = AtomicBool::new(false);

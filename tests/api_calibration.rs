@@ -259,3 +259,36 @@ async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
     assert!(metrics.contains("sinscal_queue_depth 0"));
     app.stop().await;
 }
+
+/// A line that knows its units lag: the server's `--model` reaches every
+/// calibrate job, whose result carries the effect with its σ.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_configured_model_reaches_the_calibrate_jobs() {
+    let app = spawn_app_with(1, |c| {
+        c.estimate.model = "base+accel_delay".parse().unwrap();
+    })
+    .await;
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = sim_config(7, ErrorParameters::paper(), "ten-position-9+9", 60.0);
+    cfg.effects.accel_delay = Some(2.0);
+    let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0077", None);
+    let r = app.upload_run("RLG-0077", &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let body: Value = r.json().await.unwrap();
+    let job = app
+        .wait_job(body["job_id"].as_str().unwrap(), Duration::from_secs(120))
+        .await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    let result = app.get_result(body["run_id"].as_str().unwrap()).await;
+    assert_eq!(result["model"], "base-24+accel_delay");
+    let delay = &result["effects"]["accel_delay"];
+    let (value, sigma) = (
+        delay["value"].as_f64().unwrap(),
+        delay["sigma"].as_f64().unwrap(),
+    );
+    assert_eq!(delay["unit"], "ms");
+    assert!(
+        (value - 2.0).abs() < 3.0 * sigma,
+        "delay {value} ± {sigma} ms for 2"
+    );
+}

@@ -135,6 +135,36 @@ fn calibrate_says_when_the_model_does_not_explain_the_run() {
     assert!(table.contains("model check: inadequate"), "{table}");
     assert!(table.contains("velocity step across the turn"), "{table}");
     assert!(table.contains("run `sinscal diagnose`"), "{table}");
+
+    // The same run with the delay in the model: estimated, and the model
+    // explains the run.
+    let output = sinscal()
+        .arg("calibrate")
+        .arg(out.join("run.csv"))
+        .args(["--model", "base+accel_delay"])
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let table = String::from_utf8(output.stdout).unwrap();
+    assert!(table.contains("base-24+accel_delay"), "{table}");
+    assert!(table.contains("model check: adequate"), "{table}");
+    let line = table.lines().find(|l| l.starts_with("accel_delay")).unwrap();
+    let value: f64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
+    assert!((value - 2.0).abs() < 0.05, "{line}");
+
+    let output = sinscal()
+        .arg("calibrate")
+        .arg(out.join("run.csv"))
+        .args(["--model", "base+accel_dleay"])
+        .output()
+        .unwrap();
+    assert!(!output.status.success());
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(err.contains("not a SPEC §3 effect"), "{err}");
 }
 
 #[test]

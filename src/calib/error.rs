@@ -14,4 +14,7 @@ pub enum CalibError {
     Unusable(String),
     #[error("numerical failure: {0}")]
     Numerical(String),
+    /// The options ask for what the estimator does not do.
+    #[error("options: {0}")]
+    Options(String),
 }

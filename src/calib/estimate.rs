@@ -73,7 +73,18 @@ pub(crate) fn estimate_scanned(
             "the run holds {dwells} dwell: a calibration needs the unit at rest in at least two attitudes, with a turn between them"
         )));
     }
+    if opts.estimator == EstimatorKind::Lsq && !opts.model.is_base() {
+        return Err(CalibError::Options(format!(
+            "model {} carries effect states, which only the filter estimates (estimator kf)",
+            opts.model
+        )));
+    }
     let mut params = ErrorParameters::zero();
+    let effect_states = opts.model.states();
+    // The effects' estimates (SI, state order), composed like the base
+    // parameters: each pass removes them from the records and estimates
+    // what is left.
+    let mut effects = vec![0.0; effect_states.len()];
     let max_passes = opts.max_passes.max(1);
     let mut last: Option<Pass> = None;
     let mut passes = 0;
@@ -97,12 +108,15 @@ pub(crate) fn estimate_scanned(
             })
         };
         let p = match opts.estimator {
-            EstimatorKind::Kf => kf_pass(ctx, &params, &mut report)?,
-            EstimatorKind::Lsq => lsq_as_pass(ctx, &params, &mut report)?,
+            EstimatorKind::Kf => kf_pass(ctx, &params, &effects, &mut report)?,
+            EstimatorKind::Lsq => lsq_as_pass(ctx, &params, &effects, &mut report)?,
         };
         let mut delta = ErrorParameters::zero();
-        delta.si.copy_from_slice(&p.delta);
+        delta.si.copy_from_slice(&p.delta[..N_PARAMS]);
         params = params.compose(&delta);
+        for (e, d) in effects.iter_mut().zip(&p.delta[N_PARAMS..]) {
+            *e += d;
+        }
         let worst = p
             .delta
             .iter()
@@ -134,15 +148,15 @@ pub(crate) fn estimate_scanned(
         };
         // The other estimator, linearised at this one's answer.
         let other = match opts.estimator {
-            EstimatorKind::Kf => lsq_as_pass(ctx, &params, &mut report)?,
-            EstimatorKind::Lsq => kf_pass(ctx, &params, &mut report)?,
+            EstimatorKind::Kf => lsq_as_pass(ctx, &params, &effects, &mut report)?,
+            EstimatorKind::Lsq => kf_pass(ctx, &params, &effects, &mut report)?,
         };
         let (kf_sigma, lsq_sigma) = match opts.estimator {
             EstimatorKind::Kf => (&last.sigma, &other.sigma),
             EstimatorKind::Lsq => (&other.sigma, &last.sigma),
         };
         let mut d = ErrorParameters::zero();
-        d.si.copy_from_slice(&other.delta);
+        d.si.copy_from_slice(&other.delta[..N_PARAMS]);
         let other_params = params.compose(&d);
         let (kf_p, lsq_p) = match opts.estimator {
             EstimatorKind::Kf => (&params, &other_params),
@@ -162,7 +176,7 @@ pub(crate) fn estimate_scanned(
     // filter pass at its answer gives the model check every result carries.
     if last.model_check.is_none() {
         let mut report = |_: f64| {};
-        last.model_check = kf_pass(ctx, &params, &mut report)?.model_check;
+        last.model_check = kf_pass(ctx, &params, &effects, &mut report)?.model_check;
     }
     progress(Progress {
         fraction: 0.95,
@@ -190,6 +204,26 @@ pub(crate) fn estimate_scanned(
             },
         );
     }
+    let mut effect_estimates = std::collections::BTreeMap::new();
+    for (j, state) in effect_states.iter().enumerate() {
+        let sigma = last.sigma[N_PARAMS + j];
+        let prior_si = state.prior_sigma() * state.si_per_unit();
+        if sigma > POORLY_OBSERVABLE * prior_si {
+            warnings.push(format!(
+                "{} is poorly observable on this run's scheme: its σ is {:.0}% of the prior",
+                state.name(),
+                100.0 * sigma / prior_si
+            ));
+        }
+        effect_estimates.insert(
+            state.name(),
+            ParameterEstimate {
+                value: effects[j] / state.si_per_unit(),
+                sigma: sigma / state.si_per_unit(),
+                unit: state.unit().to_string(),
+            },
+        );
+    }
     if let Some(check) = &cross_check {
         for name in &check.flagged {
             warnings.push(format!(
@@ -211,9 +245,9 @@ pub(crate) fn estimate_scanned(
     });
     Ok(CalibrationResult {
         estimator: opts.estimator.name().into(),
-        model: "base-24".into(),
+        model: opts.model.to_string(),
         parameters,
-        effects: Default::default(),
+        effects: effect_estimates,
         warnings,
         passes,
         records: scan.n_records,
@@ -238,9 +272,10 @@ pub(crate) fn estimate_scanned(
 fn lsq_as_pass(
     ctx: &PassContext,
     params: &ErrorParameters,
+    effects: &[f64],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Pass, CalibError> {
-    let sol = lsq_pass(ctx, params, progress)?;
+    let sol = lsq_pass(ctx, params, effects, progress)?;
     Ok(Pass {
         delta: sol.delta,
         sigma: sol.sigma,

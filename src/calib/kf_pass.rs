@@ -5,7 +5,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
-use super::effect_sensitivity::EffectTerms;
+use super::effect_model::ErrorModel;
+use super::effect_sensitivity::{EffectParameter, EffectTerms};
 use super::error::CalibError;
 use super::filter::Innovation;
 use super::model_check::{CheckAccumulator, ModelCheck};
@@ -70,9 +71,40 @@ impl DwellAccumulator {
     }
 }
 
+/// The walk's effect terms for `model` with the effects at `effects` (SI,
+/// state order) taken out of the records: each state in units of its
+/// prior σ, and a delay's second-order term removed with it (on the
+/// delayed records a delay τ adds τ E₁ − τ² E₂,
+/// `EffectParameter::AccelDelaySquared`).
+pub(super) fn effect_terms(model: &ErrorModel, effects: &[f64]) -> EffectTerms {
+    let states = model.states();
+    let scale = states
+        .iter()
+        .map(|s| s.prior_sigma() * s.si_per_unit())
+        .collect();
+    let mut removed: Vec<(EffectParameter, f64)> = states
+        .iter()
+        .copied()
+        .zip(effects.iter().copied())
+        .filter(|(_, v)| *v != 0.0)
+        .collect();
+    if let Some(&(_, tau)) = removed
+        .iter()
+        .find(|(s, _)| *s == EffectParameter::AccelDelay)
+    {
+        removed.push((EffectParameter::AccelDelaySquared, -tau * tau));
+    }
+    EffectTerms {
+        states,
+        scale,
+        removed,
+    }
+}
+
 /// The result of one filter pass.
 pub(super) struct Pass {
-    /// Residual parameter estimate, SI.
+    /// Residual parameter estimate, SI: the base 24, then the effect
+    /// states of the model.
     pub delta: Vec<f64>,
     pub sigma: Vec<f64>,
     pub c_b_n0: Matrix3<f64>,
@@ -83,16 +115,20 @@ pub(super) struct Pass {
 }
 
 /// One pass of alignment and the filter over the records compensated with
-/// `params`.
+/// `params`, with the model's effect states (`ctx.opts.model`) as further
+/// states and the effects at `effects` (SI, state order) removed first.
 pub(super) fn kf_pass(
     ctx: &PassContext,
     params: &ErrorParameters,
+    effects: &[f64],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Pass, CalibError> {
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
+    let terms = effect_terms(&ctx.opts.model, effects);
 
-    let mut kf = ctx.filter(ctx.opts.zupt_sigma_mps);
+    let mut kf = ctx.filter_with_effects(ctx.opts.zupt_sigma_mps, &terms.scale);
+    let n_p = kf.n_params();
 
     let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
     // One slot kept for the last window, so the history never exceeds
@@ -105,47 +141,39 @@ pub(super) fn kf_pass(
         ..Default::default()
     };
     let mut dwell_acc: Vec<DwellAccumulator> = (0..ctx.scan.segments.len())
-        .map(|_| DwellAccumulator::new(N_PARAMS))
+        .map(|_| DwellAccumulator::new(n_p))
         .collect();
-    let mut check = CheckAccumulator::new(&ctx.scan.segments, N_PARAMS);
+    let mut check = CheckAccumulator::new(&ctx.scan.segments, n_p);
 
-    walk(
-        ctx,
-        &comp,
-        &c_b_n0,
-        &mut kf,
-        &EffectTerms::none(),
-        progress,
-        |kf, w| {
-            let d0 = dwell_at(&ctx.scan.segments, w.t_start);
-            let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
-            if dwell.is_some() || ctx.opts.zupt_in_motion {
-                let innov = kf.update_zero_velocity(&w.nav.v_n)?;
-                if let Some(d) = dwell {
-                    dwell_acc[d].add(&innov);
-                    check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
-                }
-                let (phi, dv) = kf.take_navigation_errors();
-                w.nav.correct(&phi, &dv, &Vector3::zeros());
-                w.corrected = true;
+    walk(ctx, &comp, &c_b_n0, &mut kf, &terms, progress, |kf, w| {
+        let d0 = dwell_at(&ctx.scan.segments, w.t_start);
+        let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
+        if dwell.is_some() || ctx.opts.zupt_in_motion {
+            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
+            if let Some(d) = dwell {
+                dwell_acc[d].add(&innov);
+                check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
             }
-            if w.index % every == 0 || w.index + 1 == n_windows {
-                let (d, s) = kf.parameters()?;
-                history.t.push(w.t_end);
-                history.value.push(
-                    (0..N_PARAMS)
-                        .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
-                        .collect(),
-                );
-                history.sigma.push(
-                    (0..N_PARAMS)
-                        .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
-                        .collect(),
-                );
-            }
-            Ok(())
-        },
-    )?;
+            let (phi, dv) = kf.take_navigation_errors();
+            w.nav.correct(&phi, &dv, &Vector3::zeros());
+            w.corrected = true;
+        }
+        if w.index % every == 0 || w.index + 1 == n_windows {
+            let (d, s) = kf.parameters()?;
+            history.t.push(w.t_end);
+            history.value.push(
+                (0..N_PARAMS)
+                    .map(|i| ((params.si[i] + d[i]) / PARAMETERS[i].si_per_unit) as f32)
+                    .collect(),
+            );
+            history.sigma.push(
+                (0..N_PARAMS)
+                    .map(|i| (s[i] / PARAMETERS[i].si_per_unit) as f32)
+                    .collect(),
+            );
+        }
+        Ok(())
+    })?;
 
     let (delta, sigma) = kf.parameters()?;
     if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {

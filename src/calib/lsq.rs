@@ -29,6 +29,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
 use super::filter::{error_dynamics, NAV};
+use super::kf_pass::effect_terms;
 use super::nodes::{walk_nodes, Stretch};
 use super::normal::NormalEquations;
 use super::priors::{prior_sigma, start_attitude_information, white_noise_density};
@@ -55,8 +56,15 @@ pub(super) struct LsqSolution {
 pub(super) fn lsq_pass(
     ctx: &PassContext,
     params: &ErrorParameters,
+    effects: &[f64],
     progress: &mut dyn FnMut(f64),
 ) -> Result<LsqSolution, CalibError> {
+    // The least squares carries no effect states: the model's effects are
+    // held at `effects` (the filter's answer) and taken out of the records.
+    let terms = EffectTerms {
+        removed: effect_terms(&ctx.opts.model, effects).removed,
+        ..EffectTerms::none()
+    };
     let site = &ctx.run.site;
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
@@ -74,7 +82,7 @@ pub(super) fn lsq_pass(
         &comp,
         &c_b_n0,
         window_s,
-        &EffectTerms::none(),
+        &terms,
         progress,
         |w, b, node| {
             since_node += w.t_end - w.t_start;

@@ -5,6 +5,7 @@
 
 pub mod align;
 pub mod check_statistics;
+pub mod effect_model;
 pub mod effect_sensitivity;
 pub mod error;
 pub mod estimate;
@@ -26,6 +27,7 @@ pub mod sensitivity;
 pub mod sources;
 pub mod walk;
 
+pub use effect_model::{Effect, ErrorModel};
 pub use error::CalibError;
 pub use estimate::estimate;
 pub use misfit::ModelCheck;

@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::effect_model::ErrorModel;
 use super::run::EstimatorKind;
 use super::segment::DetectOptions;
 
@@ -19,6 +20,10 @@ pub struct NoiseDensity {
 #[serde(default)]
 pub struct EstimateOptions {
     pub estimator: EstimatorKind,
+    /// The error model: the base 24 parameters, and any SPEC §3 effects
+    /// carried as further states of the filter (for lines that know their
+    /// units have them).
+    pub model: ErrorModel,
     /// Passes with feedback into the compensation, at most. A unit near
     /// the paper's errors converges in two or three; an uncalibrated one
     /// (20× those errors: 1 % scale factors, a degree of attitude error per
@@ -55,6 +60,7 @@ impl Default for EstimateOptions {
     fn default() -> Self {
         EstimateOptions {
             estimator: EstimatorKind::Kf,
+            model: ErrorModel::base(),
             max_passes: 10,
             converged_sigma: 0.05,
             window_s: 1.0,

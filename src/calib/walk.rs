@@ -53,13 +53,9 @@ impl PassContext<'_> {
     /// The systematic filter a pass starts from: the error dynamics at the
     /// run's site, the start covariance and the priors, the noise in use,
     /// and zero-velocity observations of σ `zupt_sigma_mps` (a pass that
-    /// only accumulates the parameter columns makes none).
-    pub fn filter(&self, zupt_sigma_mps: f64) -> SystematicFilter {
-        self.filter_with_effects(zupt_sigma_mps, &[])
-    }
-
-    /// The same filter carrying effect states after the base 24, one
-    /// state unit of each being `effect_scale` (SI).
+    /// only accumulates the parameter columns makes none), and effect
+    /// states after the base 24, one state unit of each being
+    /// `effect_scale` (SI).
     pub fn filter_with_effects(
         &self,
         zupt_sigma_mps: f64,

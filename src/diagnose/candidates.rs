@@ -2,9 +2,9 @@
 //! as the realistic sizes suggest, each parameter with the error state
 //! whose column (from the run's own motion) is its signature.
 
+use crate::calib::effect_model::Effect;
 use crate::calib::effect_sensitivity::EffectParameter;
 use crate::model::effects::{BiasDrift, LeverArms};
-use crate::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
 use crate::model::Effects;
 
 /// One parameter of a candidate effect, in the effect's JSON unit.
@@ -38,22 +38,21 @@ pub struct Candidate {
     pub params: Vec<EffectParam>,
 }
 
-fn p(name: &str, unit: &str, size: f64, state: EffectParameter) -> EffectParam {
-    let si_per_unit = match unit {
-        "mm" | "ms" => 1e-3,
-        "deg/h/g" => DEG_PER_H_PER_G,
-        "deg/h/h" => DEG_PER_H / HOUR,
-        "ug/h" => UG / HOUR,
-        "ppm" => PPM,
-        _ => unreachable!("no candidate parameter is in {unit}"),
-    };
+/// The library's parameter for `state`, its signature size `size` in the
+/// state's reporting unit.
+fn p(state: EffectParameter, size: f64) -> EffectParam {
     EffectParam {
-        name: name.to_string(),
-        unit: unit.to_string(),
+        name: state.name(),
+        unit: state.unit().to_string(),
         signature_size: size,
         state,
-        si_per_unit,
+        si_per_unit: state.si_per_unit(),
     }
+}
+
+/// Every state of `effect` at one signature size.
+fn family(effect: Effect, size: f64) -> Vec<EffectParam> {
+    effect.states().into_iter().map(|s| p(s, size)).collect()
 }
 
 /// Every candidate, in SPEC §3 order.
@@ -73,90 +72,51 @@ fn p(name: &str, unit: &str, size: f64, state: EffectParameter) -> EffectParam {
 /// - `bias_drift`: 3 gyro + 3 accelerometer drift rates (6).
 /// - `gyro_scale_asymmetry`: A per gyro (3).
 pub fn library() -> Vec<Candidate> {
-    use EffectParameter as S;
-    let axes = ["x", "y", "z"];
-    let mut g_sens = Vec::new();
-    for (gyro, a) in axes.iter().enumerate() {
-        for (axis, b) in axes.iter().enumerate() {
-            g_sens.push(p(
-                &format!("gyro_g_sensitivity_{a}{b}"),
-                "deg/h/g",
-                0.01,
-                S::GSensitivity { gyro, axis },
-            ));
-        }
-    }
     // Across the axes: the six off-axis components. The full nine are not
     // all observable: moving all three sensors by one vector r is moving
     // the point they sense, whose velocity is zero at every dwell.
-    let mut lever_cross = Vec::new();
-    for (accel, a) in axes.iter().enumerate() {
-        for (axis, b) in axes.iter().enumerate() {
-            if a != b {
-                lever_cross.push(p(
-                    &format!("accel_lever_arm_{a}{b}"),
-                    "mm",
-                    10.0,
-                    S::LeverArm { accel, axis },
-                ));
-            }
-        }
-    }
     vec![
         Candidate {
             name: "accel_lever_arm",
             effect: "accel_lever_arm",
-            params: axes
-                .iter()
-                .enumerate()
-                .map(|(i, a)| {
-                    let state = S::LeverArm { accel: i, axis: i };
-                    p(&format!("accel_lever_arm_{a}{a}"), "mm", 10.0, state)
-                })
+            params: (0..3)
+                .map(|i| p(EffectParameter::LeverArm { accel: i, axis: i }, 10.0))
                 .collect(),
         },
         Candidate {
             name: "accel_lever_arm_cross",
             effect: "accel_lever_arm",
-            params: lever_cross,
+            params: family(Effect::AccelLeverArm, 10.0),
         },
         Candidate {
             name: "gyro_g_sensitivity",
             effect: "gyro_g_sensitivity",
-            params: g_sens,
+            params: family(Effect::GyroGSensitivity, 0.01),
         },
         Candidate {
             name: "accel_delay",
             effect: "accel_delay",
-            params: vec![p("accel_delay", "ms", 1.0, S::AccelDelay)],
+            params: family(Effect::AccelDelay, 1.0),
         },
         Candidate {
             name: "bias_drift",
             effect: "bias_drift",
-            params: axes
-                .iter()
-                .enumerate()
-                .map(|(i, a)| {
-                    let name = format!("bias_drift_gyro_{a}");
-                    p(&name, "deg/h/h", 0.01, S::GyroBiasDrift(i))
+            params: Effect::BiasDrift
+                .states()
+                .into_iter()
+                .map(|s| {
+                    let size = match s {
+                        EffectParameter::GyroBiasDrift(_) => 0.01,
+                        _ => 10.0,
+                    };
+                    p(s, size)
                 })
-                .chain(axes.iter().enumerate().map(|(i, a)| {
-                    let name = format!("bias_drift_accel_{a}");
-                    p(&name, "ug/h", 10.0, S::AccelBiasDrift(i))
-                }))
                 .collect(),
         },
         Candidate {
             name: "gyro_scale_asymmetry",
             effect: "gyro_scale_asymmetry",
-            params: axes
-                .iter()
-                .enumerate()
-                .map(|(i, a)| {
-                    let name = format!("gyro_scale_asymmetry_{a}");
-                    p(&name, "ppm", 50.0, S::GyroScaleAsymmetry(i))
-                })
-                .collect(),
+            params: family(Effect::GyroScaleAsymmetry, 50.0),
         },
     ]
 }

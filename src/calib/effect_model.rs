@@ -1,0 +1,275 @@
+//! Which effects outside the base model (SPEC §3) a calibration carries
+//! as states, and what each state is called, measured in and allowed by
+//! its prior: `base-24+accel_lever_arm+accel_delay` as the CLI, the
+//! server's configuration and the result's `model` field write it.
+
+use std::fmt;
+use std::str::FromStr;
+
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+use super::effect_sensitivity::EffectParameter;
+use crate::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// A SPEC §3 effect, as a family of states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Effect {
+    /// The accelerometers' positions across their own axes (6 states).
+    /// Moving all three sensors by one vector moves the point they sense,
+    /// whose velocity is zero at every rest: that common part is not
+    /// observable, and the along-axis components are fixed at zero by
+    /// this choice of reference point.
+    AccelLeverArm,
+    /// The full 3 × 3 gyro g-sensitivity (9 states).
+    GyroGSensitivity,
+    /// The accelerometer channel's delay (1 state).
+    AccelDelay,
+    /// Gyro and accelerometer bias drift rates (6 states).
+    BiasDrift,
+    /// Gyro scale-factor asymmetry (3 states).
+    GyroScaleAsymmetry,
+}
+
+impl Effect {
+    pub const ALL: [Effect; 5] = [
+        Effect::AccelLeverArm,
+        Effect::GyroGSensitivity,
+        Effect::AccelDelay,
+        Effect::BiasDrift,
+        Effect::GyroScaleAsymmetry,
+    ];
+
+    /// The SPEC §3 name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::AccelLeverArm => "accel_lever_arm",
+            Effect::GyroGSensitivity => "gyro_g_sensitivity",
+            Effect::AccelDelay => "accel_delay",
+            Effect::BiasDrift => "bias_drift",
+            Effect::GyroScaleAsymmetry => "gyro_scale_asymmetry",
+        }
+    }
+
+    /// Its states, in reporting order.
+    pub fn states(self) -> Vec<EffectParameter> {
+        use EffectParameter as S;
+        match self {
+            Effect::AccelLeverArm => (0..3)
+                .flat_map(|accel| {
+                    (0..3)
+                        .filter(move |&axis| axis != accel)
+                        .map(move |axis| S::LeverArm { accel, axis })
+                })
+                .collect(),
+            Effect::GyroGSensitivity => (0..9)
+                .map(|n| S::GSensitivity {
+                    gyro: n / 3,
+                    axis: n % 3,
+                })
+                .collect(),
+            Effect::AccelDelay => vec![S::AccelDelay],
+            Effect::BiasDrift => (0..3)
+                .map(S::GyroBiasDrift)
+                .chain((0..3).map(S::AccelBiasDrift))
+                .collect(),
+            Effect::GyroScaleAsymmetry => (0..3).map(S::GyroScaleAsymmetry).collect(),
+        }
+    }
+}
+
+impl EffectParameter {
+    /// The name a result reports it under (the diagnosis uses the same).
+    pub fn name(self) -> String {
+        use EffectParameter as S;
+        match self {
+            S::LeverArm { accel, axis } => format!("accel_lever_arm_{}{}", AXES[accel], AXES[axis]),
+            S::GSensitivity { gyro, axis } => {
+                format!("gyro_g_sensitivity_{}{}", AXES[gyro], AXES[axis])
+            }
+            S::AccelDelay => "accel_delay".into(),
+            S::AccelDelaySquared => "accel_delay_squared".into(),
+            S::GyroBiasDrift(i) => format!("bias_drift_gyro_{}", AXES[i]),
+            S::AccelBiasDrift(i) => format!("bias_drift_accel_{}", AXES[i]),
+            S::GyroScaleAsymmetry(i) => format!("gyro_scale_asymmetry_{}", AXES[i]),
+        }
+    }
+
+    /// The unit it is reported in (SPEC §3's JSON units).
+    pub fn unit(self) -> &'static str {
+        use EffectParameter as S;
+        match self {
+            S::LeverArm { .. } => "mm",
+            S::GSensitivity { .. } => "deg/h/g",
+            S::AccelDelay => "ms",
+            S::AccelDelaySquared => "ms^2",
+            S::GyroBiasDrift(_) => "deg/h/h",
+            S::AccelBiasDrift(_) => "ug/h",
+            S::GyroScaleAsymmetry(_) => "ppm",
+        }
+    }
+
+    /// One reporting unit in SI.
+    pub fn si_per_unit(self) -> f64 {
+        use EffectParameter as S;
+        match self {
+            S::LeverArm { .. } | S::AccelDelay => 1e-3,
+            S::AccelDelaySquared => 1e-6,
+            S::GSensitivity { .. } => DEG_PER_H_PER_G,
+            S::GyroBiasDrift(_) => DEG_PER_H / HOUR,
+            S::AccelBiasDrift(_) => UG / HOUR,
+            S::GyroScaleAsymmetry(_) => PPM,
+        }
+    }
+
+    /// Prior 1-σ of the state as a calibration carries it (reporting
+    /// unit): several times the largest a navigation-grade unit shows
+    /// (SPEC §3's realistic ranges: arms to 10 cm, delays to 5 ms, drift to
+    /// 0.02 deg/h/h and 20 µg/h, g-sensitivity to 0.02 deg/h/g, asymmetry
+    /// to 100 ppm), so the prior bounds only what the run cannot see.
+    pub fn prior_sigma(self) -> f64 {
+        use EffectParameter as S;
+        match self {
+            S::LeverArm { .. } => 300.0,
+            S::GSensitivity { .. } => 0.1,
+            S::AccelDelay => 20.0,
+            S::AccelDelaySquared => 400.0,
+            S::GyroBiasDrift(_) => 0.1,
+            S::AccelBiasDrift(_) => 100.0,
+            S::GyroScaleAsymmetry(_) => 500.0,
+        }
+    }
+}
+
+/// The error model a calibration estimates: the 24 base parameters and
+/// any SPEC §3 effects as further states.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ErrorModel {
+    /// In `Effect::ALL` order, without repeats.
+    effects: Vec<Effect>,
+}
+
+impl ErrorModel {
+    /// The base model alone.
+    pub fn base() -> Self {
+        Self::default()
+    }
+
+    pub fn with(effects: &[Effect]) -> Self {
+        let mut effects = effects.to_vec();
+        effects.sort_unstable();
+        effects.dedup();
+        ErrorModel { effects }
+    }
+
+    pub fn effects(&self) -> &[Effect] {
+        &self.effects
+    }
+
+    pub fn is_base(&self) -> bool {
+        self.effects.is_empty()
+    }
+
+    /// Every effect state, in order.
+    pub fn states(&self) -> Vec<EffectParameter> {
+        self.effects.iter().flat_map(|e| e.states()).collect()
+    }
+}
+
+impl fmt::Display for ErrorModel {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("base-24")?;
+        for e in &self.effects {
+            write!(f, "+{}", e.name())?;
+        }
+        Ok(())
+    }
+}
+
+/// Why a model string was refused.
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[error("model {given:?}: {why} (write base, or base+<effect>+…, effects among {known})")]
+pub struct ModelParseError {
+    given: String,
+    why: String,
+    known: String,
+}
+
+impl FromStr for ErrorModel {
+    type Err = ModelParseError;
+
+    /// `base`, `base-24`, or either followed by `+<SPEC §3 effect>`s.
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let refuse = |why: String| ModelParseError {
+            given: s.to_string(),
+            why,
+            known: Effect::ALL.map(Effect::name).join(", "),
+        };
+        let mut parts = s.trim().split('+');
+        match parts.next() {
+            Some("base") | Some("base-24") => {}
+            other => {
+                return Err(refuse(format!(
+                    "it must start with the base model, not {:?}",
+                    other.unwrap_or("")
+                )))
+            }
+        }
+        let mut effects = Vec::new();
+        for part in parts {
+            let e = Effect::ALL
+                .into_iter()
+                .find(|e| e.name() == part.trim())
+                .ok_or_else(|| refuse(format!("{part:?} is not a SPEC §3 effect")))?;
+            effects.push(e);
+        }
+        Ok(ErrorModel::with(&effects))
+    }
+}
+
+impl Serialize for ErrorModel {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+impl<'de> Deserialize<'de> for ErrorModel {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(serde::de::Error::custom)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn models_read_and_write_as_the_cli_and_the_result_spell_them() {
+        let m: ErrorModel = "base+accel_delay+accel_lever_arm".parse().unwrap();
+        assert_eq!(m.to_string(), "base-24+accel_lever_arm+accel_delay");
+        assert_eq!(m.states().len(), 7);
+        assert_eq!("base".parse::<ErrorModel>().unwrap(), ErrorModel::base());
+        assert_eq!(ErrorModel::base().to_string(), "base-24");
+        let every = Effect::ALL.map(Effect::name).join("+");
+        let all: ErrorModel = format!("base+{every}").parse().unwrap();
+        assert_eq!(all.states().len(), 6 + 9 + 1 + 6 + 3);
+        assert!("accel_delay".parse::<ErrorModel>().is_err());
+        assert!("base+accel_dleay".parse::<ErrorModel>().is_err());
+        let json = serde_json::to_string(&m).unwrap();
+        assert_eq!(serde_json::from_str::<ErrorModel>(&json).unwrap(), m);
+    }
+
+    #[test]
+    fn state_names_are_unique_and_carry_units() {
+        let all = ErrorModel::with(&Effect::ALL).states();
+        let mut names: Vec<String> = all.iter().map(|p| p.name()).collect();
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), all.len());
+        assert!(all
+            .iter()
+            .all(|p| p.si_per_unit() > 0.0 && p.prior_sigma() > 0.0));
+    }
+}
