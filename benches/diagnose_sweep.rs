@@ -4,9 +4,12 @@
 //! scheme with 600 s dwells at 20 Hz, the both-ways scheme for the scale
 //! asymmetry; paper truth, navigation-grade noise). Per case: how often
 //! the acceptance criteria all hold, how often the right effect is named
-//! first, and the gap figures. Run: `cargo bench --bench diagnose_sweep`
-//! (`-- --seeds N`, default 5; `-- --arw A` sets the gyro angle random
-//! walk in deg/√h, default the tests' 0.0003).
+//! first, and the gap figures; and how many clean runs name nothing. Run:
+//! `cargo bench --bench diagnose_sweep` (`-- --seeds N`, default 5, clean
+//! runs twice that; `-- --arw A` sets the gyro angle random walk in
+//! deg/√h, default the tests' 0.0003; `-- --dwell S`, default 600;
+//! `-- --manual` turns every scheme by hand (SPEC §4 flips, the hand
+//! turns drawn from the seed) and records at 100 Hz).
 
 #[path = "../tests/diagnosis_support/mod.rs"]
 mod diagnosis_support;
@@ -14,6 +17,11 @@ mod diagnosis_support;
 use diagnosis_support::{acceptance, both_ways, config, nine_plus_nine, run_quiet};
 use sinscal::model::effects::{BiasDrift, LeverArms};
 use sinscal::model::Effects;
+use sinscal::sim::{HandTurns, Scheme, SimConfig};
+
+/// Hand flips last a second or two: they are recorded at 100 Hz (at the
+/// tests' 20 Hz the strapdown integration itself leaves a gap).
+const HAND_RATE_HZ: f64 = 100.0;
 
 /// An effect's name, its run at a size, and the two ends of its range.
 type Case = (&'static str, fn(f64) -> Effects, [(f64, &'static str); 2]);
@@ -83,6 +91,34 @@ fn main() {
     };
     let seeds = flag("--seeds").map_or(5, |n| n as u64);
     let arw = flag("--arw");
+    let dwell_s = flag("--dwell").unwrap_or(600.0);
+    let manual = args.iter().any(|a| a == "--manual");
+    let run_config = |nominal: Scheme, effects: Effects, seed: u64| -> SimConfig {
+        let scheme = if manual {
+            Scheme::by_hand(&nominal, seed, &HandTurns::default()).unwrap()
+        } else {
+            nominal
+        };
+        let mut cfg = config(scheme, effects, seed);
+        if manual {
+            cfg.sample_rate_hz = HAND_RATE_HZ;
+        }
+        if let Some(arw) = arw {
+            cfg.noise.gyro_arw_deg_rt_h = arw;
+        }
+        cfg
+    };
+    let clean_seeds = 2 * seeds;
+    let named_nothing = (1..=clean_seeds)
+        .filter(|&seed| {
+            let rep = run_quiet(&run_config(nine_plus_nine(dwell_s), Effects::none(), seed));
+            if !rep.named.is_empty() {
+                eprintln!("clean seed {seed}: {}", rep.verdict);
+            }
+            rep.named.is_empty()
+        })
+        .count();
+    println!("clean runs naming nothing: {named_nothing}/{clean_seeds}\n");
     println!(
         "| effect | size | all criteria | named first | raw shrink (min) | excess shrink (min) | after / floor (max) |"
     );
@@ -95,14 +131,11 @@ fn main() {
         let (mut raw_min, mut excess_min, mut after_max) = (f64::INFINITY, f64::INFINITY, 0.0_f64);
         for seed in 1..=seeds {
             let scheme = if effect == "gyro_scale_asymmetry" {
-                both_ways(600.0)
+                both_ways(dwell_s)
             } else {
-                nine_plus_nine(600.0)
+                nine_plus_nine(dwell_s)
             };
-            let mut cfg = config(scheme, effects, seed);
-            if let Some(arw) = arw {
-                cfg.noise.gyro_arw_deg_rt_h = arw;
-            }
+            let cfg = run_config(scheme, effects, seed);
             let rep = run_quiet(&cfg);
             let check = acceptance(&rep, &cfg, &[effect]);
             if check.failed.is_empty() {

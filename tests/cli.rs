@@ -152,7 +152,10 @@ fn calibrate_says_when_the_model_does_not_explain_the_run() {
     let table = String::from_utf8(output.stdout).unwrap();
     assert!(table.contains("base-24+accel_delay"), "{table}");
     assert!(table.contains("model check: adequate"), "{table}");
-    let line = table.lines().find(|l| l.starts_with("accel_delay")).unwrap();
+    let line = table
+        .lines()
+        .find(|l| l.starts_with("accel_delay"))
+        .unwrap();
     let value: f64 = line.split_whitespace().nth(1).unwrap().parse().unwrap();
     assert!((value - 2.0).abs() < 0.05, "{line}");
 

@@ -64,14 +64,16 @@ pub struct Nodes {
     pub c_b_n_end: Matrix3<f64>,
 }
 
-/// Walks the measured run once, compensated with `params`, from
-/// `c_b_n0`, accumulating the columns of the effect parameters `effects`
-/// (each with the SI size of its unit) beside the base ones.
+/// Walks the measured run once, compensated with `params` and with the
+/// effects `removed` (SI values) taken out, from `c_b_n0`, accumulating
+/// the columns of the effect parameters `effects` (each with the SI size
+/// of its unit) beside the base ones.
 pub(crate) fn measured_nodes(
     ctx: &PassContext,
     params: &ErrorParameters,
     c_b_n0: &Matrix3<f64>,
     effects: &[(EffectParameter, f64)],
+    removed: &[(EffectParameter, f64)],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Nodes, CalibError> {
     let comp = params.compensator();
@@ -83,7 +85,7 @@ pub(crate) fn measured_nodes(
     let terms = EffectTerms {
         states,
         scale,
-        removed: Vec::new(),
+        removed: removed.to_vec(),
     };
     let site = &ctx.run.site;
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());

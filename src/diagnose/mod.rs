@@ -117,19 +117,19 @@ pub fn diagnose(
     };
 
     let lib = Library::new();
-    let (columns, delay) = effect_columns(&lib);
+    let cols = gap_columns(&lib);
     stage(
         progress,
         0.45,
         "navigating the run with every candidate's columns",
     );
-    let nodes = gap::measured_nodes(&ctx, &params, &c_b_n0, &columns, &mut |f| {
+    let nodes = gap::measured_nodes(&ctx, &params, &c_b_n0, &cols.states, &[], &mut |f| {
         progress(Progress {
             fraction: 0.45 + 0.45 * f,
             stage: "navigating the run with every candidate's columns".into(),
         })
     })?;
-    let problem = GapProblem::new(&ctx, &nodes, delay)?;
+    let problem = GapProblem::new(&ctx, &nodes, cols.delay)?;
     let prior = prior_sigma(opts.estimate.prior_scale);
     stage(progress, 0.9, "selecting effects");
 
@@ -143,6 +143,12 @@ pub fn diagnose(
         recon: recon.as_ref().ok(),
         c_b_n_end: nodes.c_b_n_end,
     })?;
+    let (params, selection) = if selection.named.is_empty() {
+        (params, selection)
+    } else {
+        stage(progress, 0.95, "refitting about the named effects");
+        relinearise(&ctx, &lib, &cols, &params, &prior, opts, selection)?
+    };
     let kinds = stretch_kinds(&nodes, &scan.segments);
     let report = assemble::report(
         assemble::Inputs {
@@ -165,28 +171,98 @@ pub fn diagnose(
     Ok(report)
 }
 
-/// The effect states the gap needs, each with the SI size of its unit:
-/// every library parameter at its signature size, then the delay's
-/// second-order term (per squared signature size) after them.
-fn effect_columns(lib: &Library) -> (Vec<(EffectParameter, f64)>, Option<DelayColumns>) {
-    let mut columns: Vec<(EffectParameter, f64)> = lib
+/// One Gauss–Newton step of the whole gap problem about the named
+/// effects: the base corrections composed into the calibration, the named
+/// effects at their fitted values taken out of the records (a delay with
+/// its second-order term), the run walked again and the same model
+/// refitted. A large effect (a 10 cm arm on hand flips: velocity steps of
+/// 10 cm/s) moves the base calibration it was linearised about by tens of
+/// σ; about the fitted point what is left is linear. The selection's
+/// decisions stay as they were; its final fit, and the figures of the
+/// step that ended it, are the refit's (the removed values added back),
+/// and the verdict's remainder is judged on it.
+fn relinearise(
+    ctx: &PassContext,
+    lib: &Library,
+    cols: &GapColumns,
+    params: &ErrorParameters,
+    prior: &[f64],
+    opts: &DiagnoseOptions,
+    mut selection: select::Selection,
+) -> Result<(ErrorParameters, select::Selection), DiagnoseError> {
+    let named = lib.columns_of(&selection.named);
+    let fit = &selection.current;
+    let mut delta = ErrorParameters::zero();
+    for ((d, b), s) in delta.si.iter_mut().zip(&fit.base).zip(prior) {
+        *d = b * s;
+    }
+    let point = params.compose(&delta);
+    let mut removed: Vec<(EffectParameter, f64)> = named
+        .iter()
+        .zip(&fit.theta)
+        .map(|(&col, &theta)| (cols.states[col].0, theta * cols.states[col].1))
+        .collect();
+    if let Some(&(_, tau)) = removed
+        .iter()
+        .find(|(s, _)| *s == EffectParameter::AccelDelay)
+    {
+        removed.push((EffectParameter::AccelDelaySquared, -tau * tau));
+    }
+    let c_b_n0 = align_start(ctx, &point.compensator())?;
+    let nodes = gap::measured_nodes(ctx, &point, &c_b_n0, &cols.states, &removed, &mut |_| {})?;
+    let mut refit = GapProblem::new(ctx, &nodes, cols.delay)?.fit(&named)?;
+    for (t, before) in refit.theta.iter_mut().zip(&fit.theta) {
+        *t += before;
+    }
+    let significant = refit.z() > opts.significance_sigma;
+    if let Verdict::Named { rest, .. } = &mut selection.verdict {
+        if matches!(rest, Remainder::Unexplained | Remainder::NothingSignificant) {
+            *rest = if significant {
+                Remainder::Unexplained
+            } else {
+                Remainder::NothingSignificant
+            };
+        }
+    }
+    if let Some(last) = selection
+        .steps
+        .last_mut()
+        .filter(|s| s.model == selection.named)
+    {
+        last.fit = refit.clone();
+        last.significant = significant;
+    }
+    selection.current = refit;
+    Ok((point, selection))
+}
+
+/// The effect states the gap carries, each with the SI size of its unit:
+/// every library parameter at its signature size (library order), then
+/// the delay's second-order term (per squared signature size).
+struct GapColumns {
+    states: Vec<(EffectParameter, f64)>,
+    delay: Option<DelayColumns>,
+}
+
+fn gap_columns(lib: &Library) -> GapColumns {
+    let mut states: Vec<(EffectParameter, f64)> = lib
         .candidates
         .iter()
         .flat_map(|c| c.params.iter())
         .map(|p| (p.state, p.signature_si()))
         .collect();
-    let delay = columns
+    let delay = states
         .iter()
         .position(|(s, _)| *s == EffectParameter::AccelDelay)
         .map(|first_order| {
-            let size = columns[first_order].1;
-            columns.push((EffectParameter::AccelDelaySquared, size * size));
+            let size = states[first_order].1;
+            states.push((EffectParameter::AccelDelaySquared, size * size));
             DelayColumns {
                 first_order,
-                second_order: columns.len() - 1,
+                second_order: states.len() - 1,
             }
         });
-    (columns, delay)
+    GapColumns { states, delay }
 }
 
 /// The candidates' names, in library order.
