@@ -138,6 +138,10 @@ struct PlanArgs {
     /// Write the plan as JSON here.
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also say what a run of the scheme would name: the smallest size of
+    /// each SPEC §3 effect the discrepancy workflow would detect.
+    #[arg(long)]
+    detect: bool,
 }
 
 #[derive(clap::Args)]
@@ -402,6 +406,14 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
         ..EstimateOptions::default()
     };
     let plan = plan(&input, &opts)?;
+    let detectable = if a.detect {
+        Some(sinscal::diagnose::thresholds_before_data(
+            &input,
+            &AtomicBool::new(false),
+        )?)
+    } else {
+        None
+    };
     println!(
         "scheme {} ({:.2} h), ARW {} deg/sqrt(h), VRW {} ug/sqrt(Hz): predicted 1-sigma",
         plan.scheme,
@@ -417,8 +429,18 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
     for w in &plan.warnings {
         println!("warning: {w}");
     }
+    if let Some(t) = &detectable {
+        println!(
+            "a run of this scheme would name {}",
+            sinscal::diagnose::detect::describe(t)
+        );
+    }
     if let Some(out) = &a.out {
-        write_json(out, &plan)?;
+        let mut json = serde_json::to_value(&plan)?;
+        if let Some(t) = &detectable {
+            json["detectable"] = serde_json::to_value(t)?;
+        }
+        write_json(out, &json)?;
     }
     Ok(())
 }

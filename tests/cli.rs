@@ -171,6 +171,41 @@ fn calibrate_says_when_the_model_does_not_explain_the_run() {
 }
 
 #[test]
+fn plan_says_what_a_run_of_the_scheme_would_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("plan.json");
+    let output = sinscal()
+        .args(["plan", "--scheme", "ten-position", "--dwell", "120"])
+        .args(["--rate", "20", "--detect", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = String::from_utf8(output.stdout).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("a run of this scheme would name "))
+        .unwrap_or_else(|| panic!("{text}"));
+    for quantity in [
+        "lever arm",
+        "delay ≥",
+        "g-sensitivity",
+        "gyro drift",
+        "asymmetry",
+    ] {
+        assert!(line.contains(quantity), "{line}");
+    }
+    let plan: serde_json::Value = read_json(&out).unwrap();
+    let detectable = plan["detectable"].as_array().unwrap();
+    assert!(detectable.len() >= 6);
+    assert!(detectable.iter().all(|t| t["size"].as_f64().unwrap() > 0.0));
+}
+
+#[test]
 fn plan_prints_a_sigma_for_every_parameter() {
     let output = sinscal()
         .args([

@@ -1,13 +1,17 @@
 //! The report's numbers: every figure finite, the per-segment χ² summing
 //! to the step's, the RMS figures agreeing with each other; and what a
 //! run could see: the smallest effect it would name, which an effect
-//! twice that size is.
+//! twice that size is; and the same thresholds before any data exists
+//! (`plan --detect`), which agree with what a run of the scheme reports.
 
 mod diagnosis_support;
 
 use diagnosis_support::*;
+use sinscal::calib::plan::PlanInput;
+use sinscal::calib::NoiseDensity;
 use sinscal::diagnose::candidates::{add_effect, library};
 use sinscal::diagnose::detect::DetectionThreshold;
+use sinscal::diagnose::thresholds_before_data;
 use sinscal::diagnose::{DiagnoseReport, Verdict};
 use sinscal::model::Effects;
 
@@ -184,4 +188,42 @@ fn an_effect_at_twice_the_reported_threshold_is_named() {
         }
     }
     assert!(missed.is_empty(), "{missed:#?}");
+}
+
+#[test]
+fn thresholds_before_data_agree_with_what_a_run_reports() {
+    let clean = config(nine_plus_nine(300.0), Effects::none(), 121);
+    let rep = run_quiet(&clean);
+    let input = PlanInput {
+        scheme: clean.scheme.clone(),
+        site: clean.site,
+        sample_rate_hz: clean.sample_rate_hz,
+        noise: NoiseDensity {
+            gyro_arw_deg_rt_h: clean.noise.gyro_arw_deg_rt_h,
+            accel_vrw_ug_rt_hz: clean.noise.accel_vrw_ug_rt_hz,
+        },
+        initial_attitude_error_deg: clean.initial_attitude_error_deg,
+    };
+    let before =
+        thresholds_before_data(&input, &std::sync::atomic::AtomicBool::new(false)).unwrap();
+    assert_eq!(before.len(), rep.detectable.len());
+    for t in &rep.detectable {
+        let b = before
+            .iter()
+            .find(|b| b.candidate == t.candidate && b.unit == t.unit)
+            .unwrap();
+        let ratio = b.size / t.size;
+        eprintln!(
+            "{} ({}): before data {:.4}, from the run {:.4} (ratio {ratio:.3})",
+            t.quantity, t.unit, b.size, t.size
+        );
+        // The run's own noise estimate and its dispersion (≥ 1) move its
+        // thresholds a little (0.3 % on this run).
+        assert!(
+            (0.95..1.05).contains(&ratio),
+            "{} ({}): ratio {ratio}",
+            t.quantity,
+            t.unit
+        );
+    }
 }

@@ -48,11 +48,14 @@ use std::sync::atomic::AtomicBool;
 
 use crate::calib::effect_sensitivity::EffectParameter;
 use crate::calib::estimate::estimate_scanned;
+use crate::calib::plan::PlanInput;
 use crate::calib::prescan::scan_run;
 use crate::calib::priors::prior_sigma;
+use crate::calib::sources::SimSource;
 use crate::calib::walk::{align_start, PassContext};
-use crate::calib::{Progress, RecordSource, RunInfo};
-use crate::model::ErrorParameters;
+use crate::calib::{EstimateOptions, Progress, RecordSource, RunInfo};
+use crate::model::{Effects, ErrorParameters};
+use crate::sim::{Noise, SimConfig};
 use gap::{DelayColumns, GapProblem};
 use library::Library;
 use localise::stretch_kinds;
@@ -263,6 +266,43 @@ fn gap_columns(lib: &Library) -> GapColumns {
             }
         });
     GapColumns { states, delay }
+}
+
+/// What a run of a scheme would name, before any data exists: the
+/// detection thresholds of a diagnosis of a noise-free simulated run of
+/// an error-free unit with the noise densities imposed (as `calib::plan`
+/// does for the parameters' σ). The thresholds come from the fit's
+/// information, which depends on the motion and the noise model, not on
+/// the measured values; a noise-free run's gap is zero, so the dispersion
+/// is the noise's own.
+pub fn thresholds_before_data(
+    input: &PlanInput,
+    cancel: &AtomicBool,
+) -> Result<Vec<detect::DetectionThreshold>, DiagnoseError> {
+    let cfg = SimConfig {
+        site: input.site,
+        sample_rate_hz: input.sample_rate_hz,
+        scheme: input.scheme.clone(),
+        params: ErrorParameters::zero(),
+        effects: Effects::none(),
+        noise: Noise::default(),
+        initial_attitude_error_deg: input.initial_attitude_error_deg,
+        seed: 0,
+    };
+    let defaults = DiagnoseOptions::default();
+    let opts = DiagnoseOptions {
+        estimate: EstimateOptions {
+            noise: Some(input.noise),
+            ..defaults.estimate.clone()
+        },
+        ..defaults
+    };
+    let run = RunInfo {
+        site: input.site,
+        sample_rate_hz: input.sample_rate_hz,
+    };
+    let report = diagnose(&SimSource(cfg), &run, &opts, &mut |_| {}, cancel)?;
+    Ok(report.detectable)
 }
 
 /// The candidates' names, in library order.
