@@ -9,16 +9,16 @@
 //! diagnose_detect` (`-- --seeds N`, default 10; `-- --dwell S`, default
 //! 300; `-- --manual`).
 
+mod common;
 #[path = "../tests/diagnosis_support/mod.rs"]
 mod diagnosis_support;
 
 use std::collections::BTreeMap;
 
-use diagnosis_support::{config, nine_plus_nine, run_quiet};
+use diagnosis_support::{by_hand, config, nine_plus_nine, run_quiet};
 use sinscal::diagnose::candidates::{add_effect, library};
 use sinscal::diagnose::detect::DetectionThreshold;
 use sinscal::model::Effects;
-use sinscal::sim::{HandTurns, Scheme};
 
 /// The effects of `t`'s quantity at `factor` times its threshold, along
 /// its most visible direction.
@@ -49,28 +49,20 @@ struct Tally {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let flag = |name: &str| -> Option<f64> {
-        let i = args.iter().position(|a| a == name)?;
-        args.get(i + 1)?.parse().ok()
-    };
+    let args = common::BenchArgs::from_env();
+    let flag = |name: &str| args.number(name);
     let seeds = flag("--seeds").map_or(10, |n| n as u64);
     let dwell_s = flag("--dwell").unwrap_or(300.0);
-    let manual = args.iter().any(|a| a == "--manual");
+    let manual = args.switch("--manual");
     let mut tally: BTreeMap<String, Tally> = BTreeMap::new();
     for seed in 1..=seeds {
-        let nominal = nine_plus_nine(dwell_s);
-        let scheme = if manual {
-            Scheme::by_hand(&nominal, seed, &HandTurns::default()).expect("hand turns")
-        } else {
-            nominal
-        };
         let run_with = |effects: Effects| {
-            let mut cfg = config(scheme.clone(), effects, seed);
-            if manual {
-                cfg.sample_rate_hz = 100.0;
-            }
-            run_quiet(&cfg)
+            let nominal = nine_plus_nine(dwell_s);
+            run_quiet(&if manual {
+                by_hand(&nominal, effects, seed)
+            } else {
+                config(nominal, effects, seed)
+            })
         };
         let clean = run_with(Effects::none());
         for t in &clean.detectable {

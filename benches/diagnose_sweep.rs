@@ -11,17 +11,14 @@
 //! `-- --manual` turns every scheme by hand (SPEC §4 flips, the hand
 //! turns drawn from the seed) and records at 100 Hz).
 
+mod common;
 #[path = "../tests/diagnosis_support/mod.rs"]
 mod diagnosis_support;
 
-use diagnosis_support::{acceptance, both_ways, config, nine_plus_nine, run_quiet};
+use diagnosis_support::{acceptance, both_ways, by_hand, config, nine_plus_nine, run_quiet};
 use sinscal::model::effects::{BiasDrift, LeverArms};
 use sinscal::model::Effects;
-use sinscal::sim::{HandTurns, Scheme, SimConfig};
-
-/// Hand flips last a second or two: they are recorded at 100 Hz (at the
-/// tests' 20 Hz the strapdown integration itself leaves a gap).
-const HAND_RATE_HZ: f64 = 100.0;
+use sinscal::sim::{Scheme, SimConfig};
 
 /// An effect's name, its run at a size, and the two ends of its range.
 type Case = (&'static str, fn(f64) -> Effects, [(f64, &'static str); 2]);
@@ -84,25 +81,18 @@ fn cases() -> [Case; 5] {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let flag = |name: &str| -> Option<f64> {
-        let i = args.iter().position(|a| a == name)?;
-        args.get(i + 1)?.parse().ok()
-    };
+    let args = common::BenchArgs::from_env();
+    let flag = |name: &str| args.number(name);
     let seeds = flag("--seeds").map_or(5, |n| n as u64);
     let arw = flag("--arw");
     let dwell_s = flag("--dwell").unwrap_or(600.0);
-    let manual = args.iter().any(|a| a == "--manual");
+    let manual = args.switch("--manual");
     let run_config = |nominal: Scheme, effects: Effects, seed: u64| -> SimConfig {
-        let scheme = if manual {
-            Scheme::by_hand(&nominal, seed, &HandTurns::default()).unwrap()
+        let mut cfg = if manual {
+            by_hand(&nominal, effects, seed)
         } else {
-            nominal
+            config(nominal, effects, seed)
         };
-        let mut cfg = config(scheme, effects, seed);
-        if manual {
-            cfg.sample_rate_hz = HAND_RATE_HZ;
-        }
         if let Some(arw) = arw {
             cfg.noise.gyro_arw_deg_rt_h = arw;
         }

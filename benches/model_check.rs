@@ -7,6 +7,7 @@
 //! `-- --seeds N --clean N --rate HZ --dwell S --tactical`;
 //! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone.
 
+mod common;
 #[path = "../tests/model_check_support/mod.rs"]
 mod support;
 
@@ -16,17 +17,14 @@ use sinscal::model::Effects;
 use support::*;
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let flag = |name: &str| -> Option<f64> {
-        let i = args.iter().position(|a| a == name)?;
-        args.get(i + 1)?.parse().ok()
-    };
+    let args = common::BenchArgs::from_env();
+    let flag = |name: &str| args.number(name);
     let seeds = flag("--seeds").map_or(10, |n| n as u64);
     let clean = flag("--clean").map_or(20, |n| n as u64);
     let with_effects = flag("--effects") != Some(0.0);
     let rate = flag("--rate").unwrap_or(20.0);
     let dwell = flag("--dwell").unwrap_or(600.0);
-    let noise = if args.iter().any(|a| a == "--tactical") {
+    let noise = if args.switch("--tactical") {
         tactical_grade()
     } else {
         navigation_grade()

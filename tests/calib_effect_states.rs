@@ -6,37 +6,23 @@
 //! parameters within Table 1; on a clean run every effect state is
 //! consistent with zero.
 
+mod diagnosis_support;
 mod table1_support;
 
 use std::sync::atomic::AtomicBool;
 
+use diagnosis_support::{by_hand, config, nine_plus_nine, strong_effects, HAND_RATE_HZ};
 use sinscal::calib::sources::SimSource;
 use sinscal::calib::{estimate, CalibrationResult, Effect, ErrorModel, EstimateOptions, RunInfo};
-use sinscal::model::effects::LeverArms;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::sim::{HandTurns, Noise, Scheme, SimConfig};
+use sinscal::model::Effects;
+use sinscal::sim::SimConfig;
 use table1_support::assert_within_table1;
 
-fn config(scheme: Scheme, effects: Effects, seed: u64) -> SimConfig {
-    SimConfig {
-        site: Site::REFERENCE,
-        sample_rate_hz: 100.0,
-        scheme,
-        params: ErrorParameters::paper(),
-        effects,
-        noise: Noise::default_navigation_grade(),
-        initial_attitude_error_deg: [0.1, -0.1, 2.0],
-        seed,
-    }
-}
-
-fn nine_plus_nine() -> Scheme {
-    Scheme::builtin("ten-position-9+9", 300.0).unwrap()
-}
-
-fn by_hand(seed: u64) -> Scheme {
-    Scheme::by_hand(&nine_plus_nine(), seed, &HandTurns::default()).unwrap()
+/// The test runs at 100 Hz, by hand or on a turntable.
+fn on_table(effects: Effects, seed: u64) -> SimConfig {
+    let mut cfg = config(nine_plus_nine(300.0), effects, seed);
+    cfg.sample_rate_hz = HAND_RATE_HZ;
+    cfg
 }
 
 fn calibrate(cfg: &SimConfig, model: ErrorModel) -> CalibrationResult {
@@ -57,18 +43,6 @@ fn calibrate(cfg: &SimConfig, model: ErrorModel) -> CalibrationResult {
     .unwrap();
     eprintln!("{}", res.table());
     res
-}
-
-fn strong_effects() -> Effects {
-    Effects {
-        accel_lever_arm: Some(LeverArms {
-            x: [0.0, 10.0, 20.0],
-            y: [30.0, 0.0, 40.0],
-            z: [50.0, 60.0, 0.0],
-        }),
-        accel_delay: Some(5.0),
-        ..Effects::none()
-    }
 }
 
 /// Each arm across the axes within `arm_mm` and 3σ, the delay within
@@ -110,7 +84,7 @@ fn lever_arm_and_delay() -> ErrorModel {
 
 #[test]
 fn strong_effects_by_hand_are_estimated_as_states() {
-    let cfg = config(by_hand(41), strong_effects(), 41);
+    let cfg = by_hand(&nine_plus_nine(300.0), strong_effects(), 41);
     let res = calibrate(&cfg, lever_arm_and_delay());
     assert_strong_effects(&res, &cfg, 0.5, 0.01);
     let check = res.model_check.as_ref().unwrap();
@@ -121,7 +95,7 @@ fn strong_effects_by_hand_are_estimated_as_states() {
 fn strong_effects_on_a_turntable_are_estimated_as_states() {
     // Table turns at 10 °/s see the arms through ω², a tenth of what
     // hand flips give: σ ≈ 0.3 mm, so 1 mm (3σ) is the bound here.
-    let cfg = config(nine_plus_nine(), strong_effects(), 42);
+    let cfg = on_table(strong_effects(), 42);
     let res = calibrate(&cfg, lever_arm_and_delay());
     assert_strong_effects(&res, &cfg, 1.0, 0.01);
 }
@@ -132,7 +106,7 @@ fn strong_effects_on_a_turntable_are_estimated_as_states() {
 /// effect leaves the base parameters within Table 1.
 #[test]
 fn every_effect_state_on_a_clean_run_is_consistent_with_zero() {
-    let cfg = config(by_hand(43), Effects::none(), 43);
+    let cfg = by_hand(&nine_plus_nine(300.0), Effects::none(), 43);
     let model = ErrorModel::with(&[
         Effect::AccelLeverArm,
         Effect::GyroGSensitivity,

@@ -18,21 +18,16 @@ use diagnosis_support::*;
 use sinscal::diagnose::{DiagnoseReport, Remainder, Verdict};
 use sinscal::model::effects::LeverArms;
 use sinscal::model::Effects;
-use sinscal::sim::{HandTurns, Scheme, SimConfig};
-
-const HAND_RATE_HZ: f64 = 100.0;
+use sinscal::sim::SimConfig;
 
 /// The paper's 9+9 scheme turned by hand, dwells of `dwell_s`.
-fn by_hand(dwell_s: f64, effects: Effects, seed: u64) -> SimConfig {
-    let scheme = Scheme::by_hand(&nine_plus_nine(dwell_s), seed, &HandTurns::default()).unwrap();
-    let mut cfg = config(scheme, effects, seed);
-    cfg.sample_rate_hz = HAND_RATE_HZ;
-    cfg
+fn hand_turned(dwell_s: f64, effects: Effects, seed: u64) -> SimConfig {
+    by_hand(&nine_plus_nine(dwell_s), effects, seed)
 }
 
 #[test]
 fn clean_hand_turned_run_names_nothing() {
-    let cfg = by_hand(300.0, Effects::none(), 21);
+    let cfg = hand_turned(300.0, Effects::none(), 21);
     let rep = run(&cfg);
     assert_eq!(rep.verdict, Verdict::NoSignificantEffect, "{}", rep.verdict);
     assert!(base_outside_table1(&rep, &cfg.params).is_empty());
@@ -46,7 +41,7 @@ fn small_delay_on_a_hand_turned_run_is_named() {
         accel_delay: Some(0.5),
         ..Effects::none()
     };
-    let cfg = by_hand(300.0, effects, 22);
+    let cfg = hand_turned(300.0, effects, 22);
     assert_found(&run(&cfg), &cfg, &["accel_delay"]);
 }
 
@@ -58,7 +53,7 @@ fn large_delay_on_a_hand_turned_run_leaves_nothing_unexplained() {
         accel_delay: Some(5.0),
         ..Effects::none()
     };
-    let cfg = by_hand(300.0, effects, 22);
+    let cfg = hand_turned(300.0, effects, 22);
     let rep = run(&cfg);
     assert_found(&rep, &cfg, &["accel_delay"]);
     assert!(
@@ -84,7 +79,7 @@ fn own_axis_lever_arm_on_a_hand_turned_run_is_named() {
         }),
         ..Effects::none()
     };
-    let cfg = by_hand(300.0, effects, 23);
+    let cfg = hand_turned(300.0, effects, 23);
     let rep = run(&cfg);
     assert_found(&rep, &cfg, &["accel_lever_arm"]);
     assert!(
@@ -98,20 +93,6 @@ fn own_axis_lever_arm_on_a_hand_turned_run_is_named() {
         "{}",
         rep.verdict
     );
-}
-
-/// PSINS's demo sizes: accelerometers 1–6 cm off across their axes and a
-/// 5 ms delay.
-fn strong_effects() -> Effects {
-    Effects {
-        accel_lever_arm: Some(LeverArms {
-            x: [0.0, 10.0, 20.0],
-            y: [30.0, 0.0, 40.0],
-            z: [50.0, 60.0, 0.0],
-        }),
-        accel_delay: Some(5.0),
-        ..Effects::none()
-    }
 }
 
 /// Both strong effects named (in either order), nothing left
@@ -158,7 +139,7 @@ fn assert_strong_effects_closed(rep: &DiagnoseReport, cfg: &SimConfig, arm_mm: f
 
 #[test]
 fn strong_effects_on_a_hand_turned_run_close_the_gap() {
-    let cfg = by_hand(300.0, strong_effects(), 32);
+    let cfg = hand_turned(300.0, strong_effects(), 32);
     assert_strong_effects_closed(&run(&cfg), &cfg, 0.5, 0.01);
 }
 

@@ -1,6 +1,28 @@
 //! Helpers the benchmarks share.
 
+/// The bench's own flags (after `--`): `--name value` and `--switch`.
+#[allow(dead_code)]
+pub struct BenchArgs(Vec<String>);
+
+#[allow(dead_code)]
+impl BenchArgs {
+    pub fn from_env() -> Self {
+        BenchArgs(std::env::args().collect())
+    }
+
+    /// The number after `name`, when given and a number.
+    pub fn number(&self, name: &str) -> Option<f64> {
+        let i = self.0.iter().position(|a| a == name)?;
+        self.0.get(i + 1)?.parse().ok()
+    }
+
+    pub fn switch(&self, name: &str) -> bool {
+        self.0.iter().any(|a| a == name)
+    }
+}
+
 /// Peak resident set size of this process so far, MB (Linux).
+#[allow(dead_code)]
 pub fn peak_rss_mb() -> f64 {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     status

@@ -50,17 +50,25 @@ pub struct Plan {
     pub warnings: Vec<String>,
 }
 
+impl PlanInput {
+    /// The run a plan analyses: the scheme simulated for an error-free
+    /// unit without noise (the noise enters as the densities imposed).
+    pub fn noise_free_run(&self) -> SimConfig {
+        SimConfig {
+            site: self.site,
+            sample_rate_hz: self.sample_rate_hz,
+            scheme: self.scheme.clone(),
+            params: ErrorParameters::zero(),
+            effects: Effects::none(),
+            noise: Noise::default(),
+            initial_attitude_error_deg: self.initial_attitude_error_deg,
+            seed: 0,
+        }
+    }
+}
+
 pub fn plan(input: &PlanInput, opts: &EstimateOptions) -> Result<Plan, CalibError> {
-    let cfg = SimConfig {
-        site: input.site,
-        sample_rate_hz: input.sample_rate_hz,
-        scheme: input.scheme.clone(),
-        params: ErrorParameters::zero(),
-        effects: Effects::none(),
-        noise: Noise::default(),
-        initial_attitude_error_deg: input.initial_attitude_error_deg,
-        seed: 0,
-    };
+    let cfg = input.noise_free_run();
     let opts = EstimateOptions {
         estimator: EstimatorKind::Kf,
         max_passes: 1,

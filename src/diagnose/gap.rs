@@ -25,6 +25,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::error::DiagnoseError;
+use super::library::Library;
 use crate::calib::effect_sensitivity::{EffectParameter, EffectTerms};
 use crate::calib::filter::{error_dynamics, transition, NAV};
 use crate::calib::nodes::{walk_nodes, Stretch};
@@ -146,6 +147,37 @@ pub struct DelayColumns {
 /// Gauss–Newton steps about the delay's estimate: the second-order term
 /// is 1 % of the signature, so each step gains two digits.
 const DELAY_RELINEARISATIONS: usize = 2;
+
+/// The effect states the gap carries, each with the SI size of its unit:
+/// every library parameter at its signature size (library order), then
+/// the delay's second-order term (per squared signature size).
+pub(crate) struct GapColumns {
+    pub states: Vec<(EffectParameter, f64)>,
+    pub delay: Option<DelayColumns>,
+}
+
+impl GapColumns {
+    pub fn of(lib: &Library) -> Self {
+        let mut states: Vec<(EffectParameter, f64)> = lib
+            .candidates
+            .iter()
+            .flat_map(|c| c.params.iter())
+            .map(|p| (p.state, p.signature_si()))
+            .collect();
+        let delay = states
+            .iter()
+            .position(|(s, _)| *s == EffectParameter::AccelDelay)
+            .map(|first_order| {
+                let size = states[first_order].1;
+                states.push((EffectParameter::AccelDelaySquared, size * size));
+                DelayColumns {
+                    first_order,
+                    second_order: states.len() - 1,
+                }
+            });
+        GapColumns { states, delay }
+    }
+}
 
 /// One stretch between nodes, ready for the normal equations: the error
 /// model over it (whose d is the gap's part) and the parameter columns.

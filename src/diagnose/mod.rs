@@ -19,9 +19,9 @@
 //!    `separate`); iterate until nothing significant remains (`select`,
 //!    over the columns of `library`). The conclusion is a `Verdict`.
 //! 4. The final calibration is the joint least-squares fit of the base
-//!    parameters and the named effects, linearised at the base
-//!    calibration (effects at these sizes are linear; the scale-factor
-//!    asymmetry is linear in A). `assemble` turns the selection into the
+//!    parameters and the named effects, refitted once about their fitted
+//!    values (`refit`: a large effect moves the base calibration the gap
+//!    was linearised about). `assemble` turns the selection into the
 //!    `report`, with where each step's gap lives (`localise`) and what
 //!    the run could have seen (`detect`).
 //!
@@ -38,6 +38,7 @@ mod localise;
 pub mod options;
 pub mod plot;
 pub mod reconstruct;
+mod refit;
 pub mod report;
 mod select;
 pub mod separate;
@@ -46,7 +47,6 @@ pub mod verdict;
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 
-use crate::calib::effect_sensitivity::EffectParameter;
 use crate::calib::estimate::estimate_scanned;
 use crate::calib::plan::PlanInput;
 use crate::calib::prescan::scan_run;
@@ -54,9 +54,8 @@ use crate::calib::priors::prior_sigma;
 use crate::calib::sources::SimSource;
 use crate::calib::walk::{align_start, PassContext};
 use crate::calib::{EstimateOptions, Progress, RecordSource, RunInfo};
-use crate::model::{Effects, ErrorParameters};
-use crate::sim::{Noise, SimConfig};
-use gap::{DelayColumns, GapProblem};
+use crate::model::ErrorParameters;
+use gap::GapProblem;
 use library::Library;
 use localise::stretch_kinds;
 
@@ -120,7 +119,7 @@ pub fn diagnose(
     };
 
     let lib = Library::new();
-    let cols = gap_columns(&lib);
+    let cols = gap::GapColumns::of(&lib);
     stage(
         progress,
         0.45,
@@ -150,7 +149,7 @@ pub fn diagnose(
         (params, selection)
     } else {
         stage(progress, 0.95, "refitting about the named effects");
-        relinearise(&ctx, &lib, &cols, &params, &prior, opts, selection)?
+        refit::relinearise(&ctx, &lib, &cols, &params, &prior, opts, selection)?
     };
     let kinds = stretch_kinds(&nodes, &scan.segments);
     let report = assemble::report(
@@ -174,100 +173,6 @@ pub fn diagnose(
     Ok(report)
 }
 
-/// One Gauss–Newton step of the whole gap problem about the named
-/// effects: the base corrections composed into the calibration, the named
-/// effects at their fitted values taken out of the records (a delay with
-/// its second-order term), the run walked again and the same model
-/// refitted. A large effect (a 10 cm arm on hand flips: velocity steps of
-/// 10 cm/s) moves the base calibration it was linearised about by tens of
-/// σ; about the fitted point what is left is linear. The selection's
-/// decisions stay as they were; its final fit, and the figures of the
-/// step that ended it, are the refit's (the removed values added back),
-/// and the verdict's remainder is judged on it.
-fn relinearise(
-    ctx: &PassContext,
-    lib: &Library,
-    cols: &GapColumns,
-    params: &ErrorParameters,
-    prior: &[f64],
-    opts: &DiagnoseOptions,
-    mut selection: select::Selection,
-) -> Result<(ErrorParameters, select::Selection), DiagnoseError> {
-    let named = lib.columns_of(&selection.named);
-    let fit = &selection.current;
-    let mut delta = ErrorParameters::zero();
-    for ((d, b), s) in delta.si.iter_mut().zip(&fit.base).zip(prior) {
-        *d = b * s;
-    }
-    let point = params.compose(&delta);
-    let mut removed: Vec<(EffectParameter, f64)> = named
-        .iter()
-        .zip(&fit.theta)
-        .map(|(&col, &theta)| (cols.states[col].0, theta * cols.states[col].1))
-        .collect();
-    if let Some(&(_, tau)) = removed
-        .iter()
-        .find(|(s, _)| *s == EffectParameter::AccelDelay)
-    {
-        removed.push((EffectParameter::AccelDelaySquared, -tau * tau));
-    }
-    let c_b_n0 = align_start(ctx, &point.compensator())?;
-    let nodes = gap::measured_nodes(ctx, &point, &c_b_n0, &cols.states, &removed, &mut |_| {})?;
-    let mut refit = GapProblem::new(ctx, &nodes, cols.delay)?.fit(&named)?;
-    for (t, before) in refit.theta.iter_mut().zip(&fit.theta) {
-        *t += before;
-    }
-    let significant = refit.z() > opts.significance_sigma;
-    if let Verdict::Named { rest, .. } = &mut selection.verdict {
-        if matches!(rest, Remainder::Unexplained | Remainder::NothingSignificant) {
-            *rest = if significant {
-                Remainder::Unexplained
-            } else {
-                Remainder::NothingSignificant
-            };
-        }
-    }
-    if let Some(last) = selection
-        .steps
-        .last_mut()
-        .filter(|s| s.model == selection.named)
-    {
-        last.fit = refit.clone();
-        last.significant = significant;
-    }
-    selection.current = refit;
-    Ok((point, selection))
-}
-
-/// The effect states the gap carries, each with the SI size of its unit:
-/// every library parameter at its signature size (library order), then
-/// the delay's second-order term (per squared signature size).
-struct GapColumns {
-    states: Vec<(EffectParameter, f64)>,
-    delay: Option<DelayColumns>,
-}
-
-fn gap_columns(lib: &Library) -> GapColumns {
-    let mut states: Vec<(EffectParameter, f64)> = lib
-        .candidates
-        .iter()
-        .flat_map(|c| c.params.iter())
-        .map(|p| (p.state, p.signature_si()))
-        .collect();
-    let delay = states
-        .iter()
-        .position(|(s, _)| *s == EffectParameter::AccelDelay)
-        .map(|first_order| {
-            let size = states[first_order].1;
-            states.push((EffectParameter::AccelDelaySquared, size * size));
-            DelayColumns {
-                first_order,
-                second_order: states.len() - 1,
-            }
-        });
-    GapColumns { states, delay }
-}
-
 /// What a run of a scheme would name, before any data exists: the
 /// detection thresholds of a diagnosis of a noise-free simulated run of
 /// an error-free unit with the noise densities imposed (as `calib::plan`
@@ -279,16 +184,7 @@ pub fn thresholds_before_data(
     input: &PlanInput,
     cancel: &AtomicBool,
 ) -> Result<Vec<detect::DetectionThreshold>, DiagnoseError> {
-    let cfg = SimConfig {
-        site: input.site,
-        sample_rate_hz: input.sample_rate_hz,
-        scheme: input.scheme.clone(),
-        params: ErrorParameters::zero(),
-        effects: Effects::none(),
-        noise: Noise::default(),
-        initial_attitude_error_deg: input.initial_attitude_error_deg,
-        seed: 0,
-    };
+    let cfg = input.noise_free_run();
     let defaults = DiagnoseOptions::default();
     let opts = DiagnoseOptions {
         estimate: EstimateOptions {

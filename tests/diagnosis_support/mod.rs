@@ -13,7 +13,7 @@ use sinscal::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
 use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::sim::{scheme, Noise, Scheme, SimConfig};
+use sinscal::sim::{scheme, HandTurns, Noise, Scheme, SimConfig};
 
 /// The test runs: the paper's 9+9 scheme with its 600 s dwells at 20 Hz
 /// (the noise densities, not the rate, set the information, so 20 Hz
@@ -71,6 +71,34 @@ pub fn nav_turns(dwell_s: f64) -> Scheme {
     Scheme {
         name: "nav-turns-9+9".into(),
         steps,
+    }
+}
+
+/// Hand flips last a second or two: hand-turned runs are recorded at
+/// 100 Hz (at 20 Hz the strapdown integration itself leaves a gap,
+/// CONTRACT §8.9).
+pub const HAND_RATE_HZ: f64 = 100.0;
+
+/// `nominal` turned by hand (SPEC §4 flips drawn from `seed`), the test
+/// run's truth and noise, at `HAND_RATE_HZ`.
+pub fn by_hand(nominal: &Scheme, effects: Effects, seed: u64) -> SimConfig {
+    let scheme = Scheme::by_hand(nominal, seed, &HandTurns::default()).unwrap();
+    let mut cfg = config(scheme, effects, seed);
+    cfg.sample_rate_hz = HAND_RATE_HZ;
+    cfg
+}
+
+/// PSINS's demo sizes: accelerometers 1–6 cm off across their axes and a
+/// 5 ms delay.
+pub fn strong_effects() -> Effects {
+    Effects {
+        accel_lever_arm: Some(sinscal::model::effects::LeverArms {
+            x: [0.0, 10.0, 20.0],
+            y: [30.0, 0.0, 40.0],
+            z: [50.0, 60.0, 0.0],
+        }),
+        accel_delay: Some(5.0),
+        ..Effects::none()
     }
 }
 
