@@ -24,8 +24,8 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
+use super::candidates::Candidate;
 use super::error::DiagnoseError;
-use super::library::Library;
 use crate::calib::effect_sensitivity::{EffectParameter, EffectTerms};
 use crate::calib::filter::{error_dynamics, transition, NAV};
 use crate::calib::nodes::{walk_nodes, Stretch};
@@ -157,9 +157,9 @@ pub(crate) struct GapColumns {
 }
 
 impl GapColumns {
-    pub fn of(lib: &Library) -> Self {
-        let mut states: Vec<(EffectParameter, f64)> = lib
-            .candidates
+    /// Of the library's `candidates`, in order.
+    pub fn of(candidates: &[Candidate]) -> Self {
+        let mut states: Vec<(EffectParameter, f64)> = candidates
             .iter()
             .flat_map(|c| c.params.iter())
             .map(|p| (p.state, p.signature_si()))

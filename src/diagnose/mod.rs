@@ -119,7 +119,7 @@ pub fn diagnose(
     };
 
     let lib = Library::new();
-    let cols = gap::GapColumns::of(&lib);
+    let cols = gap::GapColumns::of(&lib.candidates);
     stage(
         progress,
         0.45,
