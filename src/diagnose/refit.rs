@@ -4,7 +4,7 @@
 //! effect leaves is linear.
 
 use super::error::DiagnoseError;
-use super::gap::{self, GapColumns, GapProblem};
+use super::gap::{self, DelayColumns, GapColumns, GapProblem};
 use super::library::Library;
 use super::options::DiagnoseOptions;
 use super::select::Selection;
@@ -50,9 +50,23 @@ pub(crate) fn relinearise(
     {
         removed.push((EffectParameter::AccelDelaySquared, -tau * tau));
     }
+    // Only the named columns are walked again (and the delay's second-order
+    // column when the delay is named): the refit fits nothing else.
+    let mut states: Vec<(EffectParameter, f64)> = named.iter().map(|&c| cols.states[c]).collect();
+    let delay = cols.delay.and_then(|d| {
+        let first_order = named.iter().position(|&c| c == d.first_order)?;
+        states.push(cols.states[d.second_order]);
+        Some(DelayColumns {
+            first_order,
+            second_order: states.len() - 1,
+        })
+    });
     let c_b_n0 = align_start(ctx, &point.compensator())?;
-    let nodes = gap::measured_nodes(ctx, &point, &c_b_n0, &cols.states, &removed, &mut |_| {})?;
-    let mut refit = GapProblem::new(ctx, &nodes, cols.delay)?.fit(&named)?;
+    let nodes = gap::measured_nodes(ctx, &point, &c_b_n0, &states, &removed, &mut |_| {})?;
+    let own: Vec<usize> = (0..named.len()).collect();
+    let mut refit = GapProblem::new(ctx, &nodes, delay)?.fit(&own)?;
+    // Back to the library's columns, which the report reads them by.
+    refit.effects = named.clone();
     for (t, before) in refit.theta.iter_mut().zip(&fit.theta) {
         *t += before;
     }
