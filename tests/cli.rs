@@ -7,6 +7,18 @@ use sinscal::io::data::{DataFormat, RecordReader};
 use sinscal::io::meta::{read_json, RunMetadata, Truth};
 use sinscal::sim::simulate;
 
+/// Runs `cmd`, which must succeed (its stderr shown if not), and returns
+/// what it printed.
+fn stdout_of(cmd: &mut Command) -> String {
+    let output = cmd.output().unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    String::from_utf8(output.stdout).unwrap()
+}
+
 fn sinscal() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sinscal"))
 }
@@ -81,19 +93,13 @@ fn calibrate_prints_the_table_and_writes_the_result() {
         .unwrap();
     assert!(status.success());
     let result_path = dir.path().join("result.json");
-    let output = sinscal()
-        .arg("calibrate")
-        .arg(out.join("run.bin"))
-        .arg("--out")
-        .arg(&result_path)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let table = stdout_of(
+        sinscal()
+            .arg("calibrate")
+            .arg(out.join("run.bin"))
+            .arg("--out")
+            .arg(&result_path),
     );
-    let table = String::from_utf8(output.stdout).unwrap();
     for name in ["gyro_bias_x", "accel_misalign_zy", "accel_quad_z"] {
         assert!(table.contains(name), "{table}");
     }
@@ -138,18 +144,12 @@ fn calibrate_says_when_the_model_does_not_explain_the_run() {
 
     // The same run with the delay in the model: estimated, and the model
     // explains the run.
-    let output = sinscal()
-        .arg("calibrate")
-        .arg(out.join("run.csv"))
-        .args(["--model", "base+accel_delay"])
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let table = stdout_of(
+        sinscal()
+            .arg("calibrate")
+            .arg(out.join("run.csv"))
+            .args(["--model", "base+accel_delay"]),
     );
-    let table = String::from_utf8(output.stdout).unwrap();
     assert!(table.contains("base-24+accel_delay"), "{table}");
     assert!(table.contains("model check: adequate"), "{table}");
     let line = table
@@ -174,18 +174,12 @@ fn calibrate_says_when_the_model_does_not_explain_the_run() {
 fn plan_says_what_a_run_of_the_scheme_would_name() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("plan.json");
-    let output = sinscal()
-        .args(["plan", "--scheme", "ten-position", "--dwell", "120"])
-        .args(["--rate", "20", "--detect", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
+    let text = stdout_of(
+        sinscal()
+            .args(["plan", "--scheme", "ten-position", "--dwell", "120"])
+            .args(["--rate", "20", "--detect", "--out"])
+            .arg(&out),
     );
-    let text = String::from_utf8(output.stdout).unwrap();
     let line = text
         .lines()
         .find(|l| l.starts_with("a run of this scheme would name "))
@@ -207,24 +201,15 @@ fn plan_says_what_a_run_of_the_scheme_would_name() {
 
 #[test]
 fn plan_prints_a_sigma_for_every_parameter() {
-    let output = sinscal()
-        .args([
-            "plan",
-            "--scheme",
-            "ten-position",
-            "--dwell",
-            "120",
-            "--rate",
-            "20",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        output.status.success(),
-        "{}",
-        String::from_utf8_lossy(&output.stderr)
-    );
-    let text = String::from_utf8(output.stdout).unwrap();
+    let text = stdout_of(sinscal().args([
+        "plan",
+        "--scheme",
+        "ten-position",
+        "--dwell",
+        "120",
+        "--rate",
+        "20",
+    ]));
     assert_eq!(
         text.lines()
             .filter(|l| l.starts_with("gyro_") || l.starts_with("accel_"))

@@ -25,6 +25,21 @@ fn hand_turned(dwell_s: f64, effects: Effects, seed: u64) -> SimConfig {
     by_hand(&nine_plus_nine(dwell_s), effects, seed)
 }
 
+/// Effects were named and nothing significant is left after them.
+fn assert_nothing_left(rep: &DiagnoseReport) {
+    assert!(
+        matches!(
+            rep.verdict,
+            Verdict::Named {
+                rest: Remainder::NothingSignificant,
+                ..
+            }
+        ),
+        "{}",
+        rep.verdict
+    );
+}
+
 #[test]
 fn clean_hand_turned_run_names_nothing() {
     let cfg = hand_turned(300.0, Effects::none(), 21);
@@ -56,17 +71,7 @@ fn large_delay_on_a_hand_turned_run_leaves_nothing_unexplained() {
     let cfg = hand_turned(300.0, effects, 22);
     let rep = run(&cfg);
     assert_found(&rep, &cfg, &["accel_delay"]);
-    assert!(
-        matches!(
-            rep.verdict,
-            Verdict::Named {
-                rest: Remainder::NothingSignificant,
-                ..
-            }
-        ),
-        "{}",
-        rep.verdict
-    );
+    assert_nothing_left(&rep);
 }
 
 #[test]
@@ -82,17 +87,7 @@ fn own_axis_lever_arm_on_a_hand_turned_run_is_named() {
     let cfg = hand_turned(300.0, effects, 23);
     let rep = run(&cfg);
     assert_found(&rep, &cfg, &["accel_lever_arm"]);
-    assert!(
-        matches!(
-            rep.verdict,
-            Verdict::Named {
-                rest: Remainder::NothingSignificant,
-                ..
-            }
-        ),
-        "{}",
-        rep.verdict
-    );
+    assert_nothing_left(&rep);
 }
 
 /// Both strong effects named (in either order), nothing left
@@ -102,17 +97,7 @@ fn assert_strong_effects_closed(rep: &DiagnoseReport, cfg: &SimConfig, arm_mm: f
     let mut named: Vec<&str> = rep.named.iter().map(String::as_str).collect();
     named.sort_unstable();
     assert_eq!(named, ["accel_delay", "accel_lever_arm"], "{}", rep.verdict);
-    assert!(
-        matches!(
-            rep.verdict,
-            Verdict::Named {
-                rest: Remainder::NothingSignificant,
-                ..
-            }
-        ),
-        "{}",
-        rep.verdict
-    );
+    assert_nothing_left(rep);
     let order: Vec<&str> = rep.named.iter().map(String::as_str).collect();
     let check = acceptance(rep, cfg, &order);
     for line in &check.notes {
