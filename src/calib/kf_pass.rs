@@ -6,7 +6,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::effect_model::ErrorModel;
-use super::effect_sensitivity::{EffectParameter, EffectTerms};
+use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
 use super::filter::Innovation;
 use super::model_check::{CheckAccumulator, ModelCheck};
@@ -73,27 +73,19 @@ impl DwellAccumulator {
 
 /// The walk's effect terms for `model` with the effects at `effects` (SI,
 /// state order) taken out of the records: each state in units of its
-/// prior σ, and a delay's second-order term removed with it (on the
-/// delayed records a delay τ adds τ E₁ − τ² E₂,
-/// `EffectParameter::AccelDelaySquared`).
+/// prior σ.
 pub(super) fn effect_terms(model: &ErrorModel, effects: &[f64]) -> EffectTerms {
     let states = model.states();
     let scale = states
         .iter()
         .map(|s| s.prior_sigma() * s.si_per_unit())
         .collect();
-    let mut removed: Vec<(EffectParameter, f64)> = states
+    let removed = states
         .iter()
         .copied()
         .zip(effects.iter().copied())
         .filter(|(_, v)| *v != 0.0)
         .collect();
-    if let Some(&(_, tau)) = removed
-        .iter()
-        .find(|(s, _)| *s == EffectParameter::AccelDelay)
-    {
-        removed.push((EffectParameter::AccelDelaySquared, -tau * tau));
-    }
     EffectTerms {
         states,
         scale,

@@ -10,7 +10,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::align;
 use super::effect_sensitivity::{
-    effect_column, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
+    effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
 };
 use super::error::CalibError;
 use super::filter::{error_dynamics, SystematicFilter};
@@ -137,16 +137,16 @@ pub(crate) fn align_start(
 }
 
 /// Takes effects of known size out of a compensated record: each one's
-/// body-frame change to the record, at its value, subtracted.
+/// body-frame change to the record subtracted.
 fn remove_known_effects(r: &mut Record, removed: &[(EffectParameter, f64)], m: &RecordMotion) {
     for &(p, value) in removed {
-        let (rows, col_b) = effect_column(p, m);
+        let (rows, change) = known_effect_change(p, value, m);
         let target = match rows {
             Rows::Attitude => &mut r.dtheta,
             Rows::Velocity => &mut r.dv,
         };
-        for (x, c) in target.iter_mut().zip(col_b.iter()) {
-            *x -= c * value;
+        for (x, c) in target.iter_mut().zip(change.iter()) {
+            *x -= c;
         }
     }
 }

@@ -17,14 +17,12 @@ pub struct EffectParam {
     pub signature_size: f64,
     /// The error state it is.
     pub state: EffectParameter,
-    /// One JSON unit in SI.
-    pub si_per_unit: f64,
 }
 
 impl EffectParam {
     /// One signature size in SI: the scale of the parameter's state.
     pub fn signature_si(&self) -> f64 {
-        self.signature_size * self.si_per_unit
+        self.signature_size * self.state.si_per_unit()
     }
 }
 
@@ -46,7 +44,6 @@ fn p(state: EffectParameter, size: f64) -> EffectParam {
         unit: state.unit().to_string(),
         signature_size: size,
         state,
-        si_per_unit: state.si_per_unit(),
     }
 }
 

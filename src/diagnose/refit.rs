@@ -15,8 +15,8 @@ use crate::model::ErrorParameters;
 
 /// One Gauss–Newton step of the whole gap problem about the named
 /// effects: the base corrections composed into the calibration, the named
-/// effects at their fitted values taken out of the records (a delay with
-/// its second-order term), the run walked again and the same model
+/// effects at their fitted values taken out of the records, the run
+/// walked again and the same model
 /// refitted. A large effect (a 10 cm arm on hand flips: velocity steps of
 /// 10 cm/s) moves the base calibration it was linearised about by tens of
 /// σ; about the fitted point what is left is linear. The selection's
@@ -39,17 +39,11 @@ pub(crate) fn relinearise(
         *d = b * s;
     }
     let point = params.compose(&delta);
-    let mut removed: Vec<(EffectParameter, f64)> = named
+    let removed: Vec<(EffectParameter, f64)> = named
         .iter()
         .zip(&fit.theta)
         .map(|(&col, &theta)| (cols.states[col].0, theta * cols.states[col].1))
         .collect();
-    if let Some(&(_, tau)) = removed
-        .iter()
-        .find(|(s, _)| *s == EffectParameter::AccelDelay)
-    {
-        removed.push((EffectParameter::AccelDelaySquared, -tau * tau));
-    }
     // Only the named columns are walked again (and the delay's second-order
     // column when the delay is named): the refit fits nothing else.
     let mut states: Vec<(EffectParameter, f64)> = named.iter().map(|&c| cols.states[c]).collect();
