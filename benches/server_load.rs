@@ -21,7 +21,7 @@ use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::server::Application;
 use sinscal::sim::{Noise, Scheme, SimConfig};
-use sinscal::store::{NewRun, Store};
+use sinscal::store::{NewRun, RunFile, Store};
 
 fn sim(seed: u64) -> SimConfig {
     SimConfig {
@@ -177,13 +177,15 @@ async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
                 run_id: id.clone(),
                 job_id: uuid::Uuid::new_v4().to_string(),
                 unit_serial: serial.clone(),
-                sha256: id.clone(),
-                size_bytes: 0,
-                records: 0,
-                format: "f64le".into(),
-                gzip: false,
-                blob_path: format!("runs/seed/{id}.bin"),
-                metadata: "{}".into(),
+                file: RunFile {
+                    sha256: id.clone(),
+                    size_bytes: 0,
+                    records: 0,
+                    format: "f64le".into(),
+                    gzip: false,
+                    blob_path: format!("runs/seed/{id}.bin"),
+                    metadata: "{}".into(),
+                },
                 recorded_at: Some(t0 + (k as i64) * 86_400_000),
                 uploaded_at: t0,
                 max_attempts: 3,

@@ -62,16 +62,16 @@ impl ModelCheckBrief {
 impl RunView {
     fn from_row(r: RunRow) -> Result<Self, ApiError> {
         Ok(RunView {
-            metadata: serde_json::from_str(&r.metadata)
+            metadata: serde_json::from_str(&r.file.metadata)
                 .map_err(|e| ApiError::Internal(e.to_string()))?,
             id: r.id,
             unit_serial: r.unit_serial,
             job_id: r.job_id,
-            sha256: r.sha256,
-            size_bytes: r.size_bytes,
-            records: r.records,
-            format: r.format,
-            gzip: r.gzip,
+            sha256: r.file.sha256,
+            size_bytes: r.file.size_bytes,
+            records: r.file.records,
+            format: r.file.format,
+            gzip: r.file.gzip,
             uploaded_at: rfc3339(r.uploaded_at),
             recorded_at: r.recorded_at.map(rfc3339),
             run_time: rfc3339(r.run_time),

@@ -30,7 +30,7 @@ use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
 use crate::metrics::UploadOutcome;
 use crate::runfiles::{Pending, RunFiles};
-use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunRow};
+use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunFile, RunRow};
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.
 pub const METADATA_HEADER: &str = "x-sinscal-metadata";
@@ -328,7 +328,7 @@ fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<Response
             "these bytes are already stored for this unit by another uploader".into(),
         ));
     }
-    if run.metadata != metadata {
+    if run.file.metadata != metadata {
         return Err(ApiError::Conflict(format!(
             "these bytes are already stored for this unit as run {} with different metadata; \
              to store them with the new metadata an admin deletes that run first \
@@ -336,7 +336,12 @@ fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<Response
             run.id, run.id
         )));
     }
-    Ok(answer(StatusCode::OK, &run.id, &run.job_id, &run.sha256))
+    Ok(answer(
+        StatusCode::OK,
+        &run.id,
+        &run.job_id,
+        &run.file.sha256,
+    ))
 }
 
 /// Refuses an upload while the data folder's filesystem is below its
@@ -554,13 +559,15 @@ async fn store_run(
         run_id: run_id.clone(),
         job_id: job_id.clone(),
         unit_serial: serial.to_string(),
-        sha256: data.sha256.clone(),
-        size_bytes: data.size as i64,
-        records: records as i64,
-        format: meta.format.to_string(),
-        gzip,
-        blob_path,
-        metadata: metadata.clone(),
+        file: RunFile {
+            sha256: data.sha256.clone(),
+            size_bytes: data.size as i64,
+            records: records as i64,
+            format: meta.format.to_string(),
+            gzip,
+            blob_path,
+            metadata: metadata.clone(),
+        },
         recorded_at,
         uploaded_at: now_ms(),
         max_attempts: st.config.max_attempts,

@@ -34,6 +34,6 @@ pub use jobs::{DiagnoseQueued, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use queue::{Claim, Fence, OnInadequate};
 pub use results::{HistoryRow, UnitSummary};
-pub use runs::{InsertOutcome, NewRun, Review, RunDeletion, RunRow};
+pub use runs::{InsertOutcome, NewRun, Review, RunDeletion, RunFile, RunRow};
 pub use spread::ParamSpread;
 pub use tokens::TokenRow;

@@ -346,7 +346,7 @@ impl Store {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::{InsertOutcome, NewRun};
+    use crate::store::{InsertOutcome, NewRun, RunFile};
 
     async fn store_with_one_job() -> (tempfile::TempDir, Store, String) {
         let dir = tempfile::tempdir().unwrap();
@@ -355,13 +355,15 @@ mod tests {
             run_id: "run-1".into(),
             job_id: "job-1".into(),
             unit_serial: "U-1".into(),
-            sha256: "00".into(),
-            size_bytes: 0,
-            records: 0,
-            format: "csv".into(),
-            gzip: false,
-            blob_path: "runs/ru/run-1.csv".into(),
-            metadata: "{}".into(),
+            file: RunFile {
+                sha256: "00".into(),
+                size_bytes: 0,
+                records: 0,
+                format: "csv".into(),
+                gzip: false,
+                blob_path: "runs/ru/run-1.csv".into(),
+                metadata: "{}".into(),
+            },
             recorded_at: None,
             uploaded_at: 0,
             max_attempts: 2,

@@ -9,18 +9,26 @@ use super::error::StoreError;
 use super::jobs::count_queued;
 use super::kinds::JobState;
 
-/// A stored run, with its job's id.
+/// A run's file as stored: what an upload writes and a run row reads back.
 #[derive(Clone, Debug, FromRow)]
-pub struct RunRow {
-    pub id: String,
-    pub unit_serial: String,
+pub struct RunFile {
     pub sha256: String,
     pub size_bytes: i64,
     pub records: i64,
     pub format: String,
     pub gzip: bool,
     pub blob_path: String,
+    /// The metadata JSON as uploaded.
     pub metadata: String,
+}
+
+/// A stored run, with its job's id.
+#[derive(Clone, Debug, FromRow)]
+pub struct RunRow {
+    pub id: String,
+    pub unit_serial: String,
+    #[sqlx(flatten)]
+    pub file: RunFile,
     pub recorded_at: Option<i64>,
     pub run_time: i64,
     pub uploaded_at: i64,
@@ -69,13 +77,7 @@ pub struct NewRun {
     pub run_id: String,
     pub job_id: String,
     pub unit_serial: String,
-    pub sha256: String,
-    pub size_bytes: i64,
-    pub records: i64,
-    pub format: String,
-    pub gzip: bool,
-    pub blob_path: String,
-    pub metadata: String,
+    pub file: RunFile,
     pub recorded_at: Option<i64>,
     pub uploaded_at: i64,
     pub max_attempts: i64,
@@ -147,7 +149,7 @@ impl Store {
              WHERE r.unit_serial = ? AND r.sha256 = ?",
         )
         .bind(&new.unit_serial)
-        .bind(&new.sha256)
+        .bind(&new.file.sha256)
         .fetch_optional(&mut *tx)
         .await?;
         if let Some(RunAndJob { run_id, job_id }) = existing {
@@ -243,13 +245,13 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     )
     .bind(&new.run_id)
     .bind(&new.unit_serial)
-    .bind(&new.sha256)
-    .bind(new.size_bytes)
-    .bind(new.records)
-    .bind(&new.format)
-    .bind(new.gzip)
-    .bind(&new.blob_path)
-    .bind(&new.metadata)
+    .bind(&new.file.sha256)
+    .bind(new.file.size_bytes)
+    .bind(new.file.records)
+    .bind(&new.file.format)
+    .bind(new.file.gzip)
+    .bind(&new.file.blob_path)
+    .bind(&new.file.metadata)
     .bind(new.recorded_at)
     .bind(new.recorded_at.unwrap_or(new.uploaded_at))
     .bind(new.uploaded_at)
