@@ -270,11 +270,7 @@ fn parse_metadata(text: &[u8], serial: &str) -> Result<RunMetadata, ApiError> {
             meta.unit_serial
         )));
     }
-    if let Some(t) = &meta.recorded_at {
-        chrono::DateTime::parse_from_rfc3339(t).map_err(|e| {
-            ApiError::InvalidMetadata(format!("recorded_at {t:?} is not RFC 3339: {e}"))
-        })?;
-    }
+    meta.recorded_at_ms().map_err(ApiError::InvalidMetadata)?;
     Ok(meta)
 }
 
@@ -550,11 +546,8 @@ async fn store_run(
     // return; the startup sweep covers a crash.
     let files = RunFiles::new(st.config.data_dir.clone());
     let stored = data.file.commit_off_runtime(files, &blob_path).await?;
-    let recorded_at = meta
-        .recorded_at
-        .as_deref()
-        .and_then(|t| chrono::DateTime::parse_from_rfc3339(t).ok())
-        .map(|t| t.timestamp_millis());
+    // Checked when the metadata was parsed.
+    let recorded_at = meta.recorded_at_ms().map_err(ApiError::InvalidMetadata)?;
     let new = NewRun {
         run_id: run_id.clone(),
         job_id: job_id.clone(),

@@ -100,6 +100,19 @@ pub struct RunMetadata {
 }
 
 impl RunMetadata {
+    /// `recorded_at` in milliseconds since the epoch, or why it is not
+    /// RFC 3339.
+    pub fn recorded_at_ms(&self) -> Result<Option<i64>, String> {
+        self.recorded_at
+            .as_deref()
+            .map(|t| {
+                chrono::DateTime::parse_from_rfc3339(t)
+                    .map(|d| d.timestamp_millis())
+                    .map_err(|e| format!("recorded_at {t:?} is not RFC 3339: {e}"))
+            })
+            .transpose()
+    }
+
     pub fn site(&self) -> Site {
         Site {
             gravity_mps2: self.gravity_mps2,
