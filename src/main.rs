@@ -174,6 +174,12 @@ struct DesignArgs {
     /// Shortest dwell, s.
     #[arg(long, default_value_t = 60.0)]
     min_dwell: f64,
+    /// Longest dwell the search considers, s.
+    #[arg(long, default_value_t = 3600.0)]
+    max_dwell: f64,
+    /// Most turns in the scheme.
+    #[arg(long, default_value_t = 24)]
+    max_turns: usize,
     /// Longest acceptable run, s.
     #[arg(long)]
     max_duration: Option<f64>,
@@ -188,6 +194,11 @@ struct DesignArgs {
     /// The unit's start attitude, rotation vector in n, degrees "x,y,z".
     #[arg(long, value_parser = parse_triple, allow_hyphen_values = true)]
     attitude_error: Option<[f64; 3]>,
+    /// Effects the discrepancy workflow must name on a run of the scheme,
+    /// "accel_lever_arm=2cm,accel_delay=0.5ms" (SPEC §3 names, sizes with
+    /// their units).
+    #[arg(long, value_delimiter = ',')]
+    detect: Vec<sinscal::design::DetectGoal>,
     /// Write the scheme (SPEC §4 JSON) here.
     #[arg(long)]
     out: PathBuf,
@@ -467,6 +478,8 @@ fn run_design(a: DesignArgs) -> anyhow::Result<()> {
         rate_dps: a.rate_dps,
         accel_dps2: a.accel_dps2,
         min_dwell_s: a.min_dwell,
+        max_dwell_s: a.max_dwell,
+        max_turns: a.max_turns,
         max_duration_s: a.max_duration,
         margin: a.margin,
         by_hand: a.by_hand,
@@ -477,6 +490,7 @@ fn run_design(a: DesignArgs) -> anyhow::Result<()> {
         },
         initial_attitude_deg: a.attitude_error.unwrap_or([0.0; 3]),
         time_limit_s: None,
+        detect: a.detect,
     };
     let d = design(&req)?;
     print!("{}", d.summary());

@@ -43,6 +43,15 @@ async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
     assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
     assert!(p["detail"].as_str().unwrap().contains("colour"), "{p}");
 
+    // An effect to detect needs its size's unit.
+    let r = post(&engineer, json!({"detect": ["accel_delay=0.5"]}))
+        .await
+        .unwrap();
+    let (status, p) = problem(r).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    let detail = p["detail"].as_str().unwrap();
+    assert!(detail.contains("detect") && detail.contains("ms"), "{p}");
+
     // A loose goal at tactical-grade noise: a quick design.
     let body = json!({"target": "table1", "tighten": 0.2, "arw_deg_rt_h": 0.001,
                       "vrw_ug_rt_hz": 10, "min_dwell_s": 60});

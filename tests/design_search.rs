@@ -4,7 +4,8 @@
 
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::{EstimateOptions, NoiseDensity};
-use sinscal::design::{design, Axes, DesignRequest, Target};
+use sinscal::design::detect::DETECT_MARGIN;
+use sinscal::design::{design, Axes, DesignRequest, DetectGoal, Target};
 use sinscal::nav::Site;
 
 fn tactical() -> DesignRequest {
@@ -91,4 +92,33 @@ fn impossible_requests_are_refused_with_a_reason() {
     };
     let e = design(&req).unwrap_err().to_string();
     assert!(e.contains("max-duration"), "{e}");
+}
+
+/// `--detect`: a lever arm the 24-parameter goal alone would leave
+/// unnamed sets the scheme's length, and the discrepancy workflow, run on
+/// a noise-free simulation of the answer, names it with the margin asked.
+#[test]
+fn an_effect_to_detect_shapes_the_scheme_and_the_workflow_confirms_it() {
+    let goal: DetectGoal = "accel_lever_arm=6mm".parse().unwrap();
+    let req = DesignRequest {
+        detect: vec![goal.clone()],
+        ..tactical()
+    };
+    let d = design(&req).unwrap();
+    eprint!("{}", d.summary());
+    assert_eq!(d.detect.len(), 1);
+    let o = &d.detect[0];
+    assert!(o.met, "{}", o.describe());
+    let checked = o
+        .checked_threshold
+        .expect("the workflow reports the lever arm");
+    assert!(checked * DETECT_MARGIN <= goal.size, "{}", o.describe());
+    assert!(
+        d.binding.contains(&goal.to_string()),
+        "the lever arm should set the length: binding {:?}",
+        d.binding
+    );
+    for (name, p) in &d.parameters {
+        assert!(p.ratio <= 1.0, "{name}: ratio {}", p.ratio);
+    }
 }

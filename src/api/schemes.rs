@@ -20,7 +20,7 @@ use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::AppState;
 use crate::calib::NoiseDensity;
-use crate::design::{design, Axes, Design, DesignError, DesignRequest, Target};
+use crate::design::{design, Axes, Design, DesignError, DesignRequest, DetectGoal, Target};
 use crate::nav::Site;
 
 /// What a refused request is told to wait, s.
@@ -52,11 +52,15 @@ struct DesignBody {
     rate_dps: Option<f64>,
     accel_dps2: Option<f64>,
     min_dwell_s: Option<f64>,
+    max_dwell_s: Option<f64>,
+    max_turns: Option<usize>,
     max_duration_s: Option<f64>,
     by_hand: Option<bool>,
     seed: Option<u64>,
     latitude_deg: Option<f64>,
     attitude_error_deg: Option<[f64; 3]>,
+    /// `["accel_lever_arm=2cm", "accel_delay=0.5ms"]`.
+    detect: Option<Vec<String>>,
 }
 
 impl DesignBody {
@@ -83,6 +87,13 @@ impl DesignBody {
                 )))
             }
         };
+        let detect = self
+            .detect
+            .unwrap_or_default()
+            .iter()
+            .map(|g| g.parse::<DetectGoal>())
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| ApiError::Unprocessable(format!("detect: {e}")))?;
         let latitude = self.latitude_deg.unwrap_or(Site::REFERENCE.latitude_deg);
         Ok(DesignRequest {
             target: Some(target),
@@ -98,6 +109,8 @@ impl DesignBody {
             rate_dps: self.rate_dps.unwrap_or(defaults.rate_dps),
             accel_dps2: self.accel_dps2.unwrap_or(defaults.accel_dps2),
             min_dwell_s: self.min_dwell_s.unwrap_or(defaults.min_dwell_s),
+            max_dwell_s: self.max_dwell_s.unwrap_or(defaults.max_dwell_s),
+            max_turns: self.max_turns.unwrap_or(defaults.max_turns),
             max_duration_s: self.max_duration_s,
             margin: self.margin.unwrap_or(defaults.margin),
             by_hand: self.by_hand.unwrap_or(defaults.by_hand),
@@ -110,6 +123,7 @@ impl DesignBody {
                 .attitude_error_deg
                 .unwrap_or(defaults.initial_attitude_deg),
             time_limit_s: Some(time_limit_s),
+            detect,
         })
     }
 }
@@ -141,7 +155,7 @@ async fn design_scheme(
     match designed {
         Ok(d) => Ok(Json(d)),
         Err(DesignError::Invalid(msg)) => Err(ApiError::Unprocessable(msg)),
-        Err(e @ (DesignError::TimeLimit(_) | DesignError::Calib(_))) => {
+        Err(e @ (DesignError::TimeLimit(_) | DesignError::Calib(_) | DesignError::Diagnose(_))) => {
             Err(ApiError::Unprocessable(e.to_string()))
         }
     }

@@ -321,6 +321,21 @@ impl SystematicFilter {
             .unzip())
     }
 
+    /// 1-σ (SI) of the first `n` parameters with the others known: the
+    /// inverse of their block of the information. The information of a
+    /// set of columns does not depend on which other columns ride along,
+    /// so this is the σ a filter carrying only those `n` would report.
+    pub fn leading_parameter_sigma_si(&self, n: usize) -> Result<Vec<f64>, CalibError> {
+        let block = self.j.view((0, 0), (n, n)).into_owned();
+        let chol = block.cholesky().ok_or_else(|| {
+            CalibError::Numerical("parameter information is not positive definite".into())
+        })?;
+        let cov = chol.inverse();
+        Ok((0..n)
+            .map(|i| cov[(i, i)].max(0.0).sqrt() * self.scale[i])
+            .collect())
+    }
+
     /// Parameter covariance (SI).
     pub fn parameter_covariance_si(&self) -> Result<DMatrix<f64>, CalibError> {
         let mut cov = self.parameter_covariance()?;

@@ -29,14 +29,22 @@
 //! As in the estimator, the first and last half second of a dwell next to
 //! a turn carry no update (the pre-scan's guard), and a still stretch
 //! shorter than the pre-scan's shortest dwell is not a dwell.
+//!
+//! Effect states (`design --detect`) ride along beside the 24 as in
+//! `calibrate --model`: each step's column is `calib::effect_sensitivity`'s,
+//! read from the true motion around the step (the step and two
+//! neighbours either side, as the walk reads records). At rest every
+//! effect's column is constant but the drifts', which grow linearly in
+//! time and so are still integrated exactly by the two Gauss points.
 
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 
+use crate::calib::effect_sensitivity::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
 use crate::calib::filter::{error_dynamics, SystematicFilter};
 use crate::calib::priors::{initial_navigation_covariance, prior_sigma};
 use crate::calib::sensitivity::base_columns;
 use crate::calib::CalibError;
-use crate::model::PARAMETERS;
+use crate::model::{N_PARAMS, PARAMETERS};
 use crate::nav::attitude::rotvec_to_dcm;
 use crate::nav::Site;
 use crate::sim::trajectory::{Kinematics, Motion, Trajectory};
@@ -63,14 +71,22 @@ pub struct ObjectiveSettings {
     pub guard_s: f64,
     /// Shortest still stretch the pre-scan takes for a dwell, s.
     pub min_dwell_s: f64,
+    /// Effect states carried beside the 24 parameters.
+    pub effects: Vec<EffectParameter>,
 }
 
 /// The objective's answer for one scheme.
 #[derive(Clone, Debug)]
 pub struct Information {
-    /// Predicted 1-σ of each parameter, SI, in `PARAMETERS` order.
+    /// Predicted 1-σ of each parameter, SI, in `PARAMETERS` order, as the
+    /// base calibration (without the effect states) would report it.
     pub sigma_si: Vec<f64>,
     pub duration_s: f64,
+    /// Covariance of the effect states, SI, in `ObjectiveSettings::effects`
+    /// order (empty without them).
+    pub effect_covariance_si: DMatrix<f64>,
+    /// Dwells long enough to be observed.
+    pub observed_dwells: usize,
 }
 
 impl Information {
@@ -89,21 +105,61 @@ const TURN_WINDOW_S: f64 = 1.0;
 const FINE_REST_S: f64 = 10.0;
 
 /// Adds the parameter columns of a motion sampled at `kin` over a step of
-/// `h` seconds whose midpoint is `tau` into the window.
-fn add_step(kf: &mut SystematicFilter, kin: &Kinematics, h: f64, tau: f64) {
+/// `h` seconds whose midpoint is `tau` into the window, and the effect
+/// columns of `effects` read from `around` (the kinematics at any time),
+/// the step's midpoint being `t_mid` from the scheme's start.
+fn add_step(
+    kf: &mut SystematicFilter,
+    kin: &Kinematics,
+    (h, tau): (f64, f64),
+    effects: &[EffectParameter],
+    around: &dyn Fn(f64) -> Kinematics,
+    t_mid: f64,
+) {
     let dtheta = kin.omega_ib_b * h;
     let dv = kin.f_b * h;
     base_columns(&kin.c_b_n, &dtheta, &dv, h, |i, rows, col| {
         kf.add_column(i, rows, &col, tau)
     });
+    if effects.is_empty() {
+        return;
+    }
+    let motion = step_motion(around, t_mid, h);
+    for (j, &p) in effects.iter().enumerate() {
+        let (rows, col_b) = effect_column(p, &motion);
+        kf.add_column(N_PARAMS + j, rows, &(kin.c_b_n * col_b), tau);
+    }
 }
 
-/// A resting window of length `t`: the constant columns at two Gauss
-/// points, exact for the zeroth to third time moments.
-fn add_rest(kf: &mut SystematicFilter, kin: &Kinematics, t: f64) {
+/// The step of `h` seconds about `t_mid` and its neighbours as records of
+/// an error-free triad (their increments from the mid-step rates).
+fn step_motion(around: &dyn Fn(f64) -> Kinematics, t_mid: f64, h: f64) -> RecordMotion {
+    let kin: [Kinematics; 2 * NEIGHBOURS + 1] =
+        std::array::from_fn(|i| around(t_mid + (i as f64 - NEIGHBOURS as f64) * h));
+    RecordMotion {
+        dtheta: std::array::from_fn(|i| kin[i].omega_ib_b * h),
+        dv: std::array::from_fn(|i| kin[i].f_b * h),
+        dt: h,
+        t_mid,
+        accel_jacobian: Matrix3::identity(),
+        accel_jacobian_inv: Matrix3::identity(),
+    }
+}
+
+/// A resting window of length `t` starting `t0` from the scheme's start:
+/// the constant columns at two Gauss points, exact for the zeroth to
+/// third time moments.
+fn add_rest(
+    kf: &mut SystematicFilter,
+    kin: &Kinematics,
+    t0: f64,
+    t: f64,
+    effects: &[EffectParameter],
+) {
     let offset = t / (2.0 * 3f64.sqrt());
+    let still = |_: f64| *kin;
     for tau in [0.5 * t - offset, 0.5 * t + offset] {
-        add_step(kf, kin, 0.5 * t, tau);
+        add_step(kf, kin, (0.5 * t, tau), effects, &still, t0 + tau);
     }
 }
 
@@ -115,17 +171,26 @@ pub fn scheme_information(
     let phi = Vector3::from(s.initial_attitude_deg).map(f64::to_radians);
     let c_b_n0: Matrix3<f64> = rotvec_to_dcm(&phi);
     let traj = Trajectory::new(scheme, &c_b_n0, &s.site).map_err(CalibError::Unusable)?;
+    let mut scale = prior_sigma(s.prior_scale);
+    scale.extend(s.effects.iter().map(|p| p.prior_sigma() * p.si_per_unit()));
     let mut kf = SystematicFilter::new(
         error_dynamics(&s.site.omega_ie_n(), &s.site.f_rest_n()),
         &initial_navigation_covariance(&s.site, s.prior_scale),
-        &prior_sigma(s.prior_scale),
+        &scale,
         s.arw,
         s.vrw,
         s.zupt_sigma_mps,
     );
+    let mut walk = Walk {
+        kf: &mut kf,
+        effects: &s.effects,
+        t: 0.0,
+    };
     let segments = traj.segments();
+    let mut observed_dwells = 0;
     for (k, seg) in segments.iter().enumerate() {
         let mid = 0.5 * (seg.t0 + seg.t1);
+        walk.t = seg.t0;
         match seg.motion {
             Motion::Dwell => {
                 let kin = traj.kinematics_in(k, mid);
@@ -136,9 +201,10 @@ pub fn scheme_information(
                 let length = seg.t1 - seg.t0;
                 let observed = length - lead - tail;
                 if length < s.min_dwell_s || observed <= 0.0 {
-                    rest_without_updates(&mut kf, &kin, length);
+                    walk.rest_without_updates(&kin, length);
                 } else {
-                    rest_without_updates(&mut kf, &kin, lead);
+                    observed_dwells += 1;
+                    walk.rest_without_updates(&kin, lead);
                     // Fine windows where the velocity carries what the
                     // turn did; coarse ones in between.
                     let fine = (FINE_REST_S * 2.0).min(observed);
@@ -148,79 +214,106 @@ pub fn scheme_information(
                         (coarse, s.dwell_window_s),
                         (0.5 * fine, TURN_WINDOW_S),
                     ] {
-                        observe_rest(&mut kf, &kin, length, window)?;
+                        walk.observe_rest(&kin, length, window)?;
                     }
-                    rest_without_updates(&mut kf, &kin, tail);
+                    walk.rest_without_updates(&kin, tail);
                 }
             }
-            Motion::Rotate { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
-            Motion::Flip { profile, .. } => turn(&mut kf, &traj, k, profile.angle.abs()),
+            Motion::Rotate { profile, .. } => walk.turn(&traj, k, profile.angle.abs()),
+            Motion::Flip { profile, .. } => walk.turn(&traj, k, profile.angle.abs()),
         }
     }
-    let (_, sigma_si) = kf.parameters()?;
+    // The base calibration does not carry the effect states: its σ is that
+    // of the 24 with the effects held.
+    let sigma_si = kf.leading_parameter_sigma_si(N_PARAMS)?;
+    let effect_covariance_si = if s.effects.is_empty() {
+        DMatrix::zeros(0, 0)
+    } else {
+        let m = s.effects.len();
+        kf.parameter_covariance_si()?
+            .view((N_PARAMS, N_PARAMS), (m, m))
+            .into_owned()
+    };
     Ok(Information {
         sigma_si,
         duration_s: traj.duration(),
+        effect_covariance_si,
+        observed_dwells,
     })
 }
 
-/// Rest with a zero-velocity update at the end of every window of at most
-/// `window` seconds.
-fn observe_rest(
-    kf: &mut SystematicFilter,
-    kin: &Kinematics,
-    length: f64,
-    window: f64,
-) -> Result<(), CalibError> {
-    if length <= 0.0 {
-        return Ok(());
-    }
-    let n = (length / window).ceil().max(1.0);
-    let t = length / n;
-    for _ in 0..n as usize {
-        add_rest(kf, kin, t);
-        kf.propagate(t);
-        kf.update_zero_velocity(&Vector3::zeros())?;
-        kf.take_navigation_errors();
-    }
-    Ok(())
+/// The filter fed along the scheme, and where in it the feeding is.
+struct Walk<'a> {
+    kf: &'a mut SystematicFilter,
+    effects: &'a [EffectParameter],
+    /// Time from the scheme's start, s.
+    t: f64,
 }
 
-/// Rest without updates (a guard, or a stretch too short to be a dwell),
-/// in windows of at most a second as the estimator would step it.
-fn rest_without_updates(kf: &mut SystematicFilter, kin: &Kinematics, length: f64) {
-    if length <= 0.0 {
-        return;
-    }
-    let n = (length / TURN_WINDOW_S).ceil().max(1.0);
-    let t = length / n;
-    for _ in 0..n as usize {
-        add_rest(kf, kin, t);
-        kf.propagate(t);
-    }
-}
-
-/// A turn or flip: steps of at most 0.1 s and 1° (2° of mean rate for a
-/// flip, whose S-curve peaks at twice it), windows of at most 1 s.
-fn turn(kf: &mut SystematicFilter, traj: &Trajectory, k: usize, angle_rad: f64) {
-    let seg = &traj.segments()[k];
-    let length = seg.t1 - seg.t0;
-    let n_windows = (length / TURN_WINDOW_S).ceil().max(1.0) as usize;
-    let window = length / n_windows as f64;
-    // A flip's S-curve peaks at twice its mean rate.
-    let steps_total = (length / TURN_STEP_S)
-        .ceil()
-        .max(2.0 * angle_rad / TURN_STEP_RAD)
-        .max(1.0);
-    let per_window = (steps_total / n_windows as f64).ceil().max(1.0) as usize;
-    let h = window / per_window as f64;
-    for w in 0..n_windows {
-        let t_ws = seg.t0 + w as f64 * window;
-        for j in 0..per_window {
-            let tau = (j as f64 + 0.5) * h;
-            let kin = traj.kinematics_in(k, t_ws + tau);
-            add_step(kf, &kin, h, tau);
+impl Walk<'_> {
+    /// Rest with a zero-velocity update at the end of every window of at
+    /// most `window` seconds.
+    fn observe_rest(
+        &mut self,
+        kin: &Kinematics,
+        length: f64,
+        window: f64,
+    ) -> Result<(), CalibError> {
+        if length <= 0.0 {
+            return Ok(());
         }
-        kf.propagate(window);
+        let n = (length / window).ceil().max(1.0);
+        let t = length / n;
+        for _ in 0..n as usize {
+            add_rest(self.kf, kin, self.t, t, self.effects);
+            self.kf.propagate(t);
+            self.kf.update_zero_velocity(&Vector3::zeros())?;
+            self.kf.take_navigation_errors();
+            self.t += t;
+        }
+        Ok(())
+    }
+
+    /// Rest without updates (a guard, or a stretch too short to be a
+    /// dwell), in windows of at most a second as the estimator would step
+    /// it.
+    fn rest_without_updates(&mut self, kin: &Kinematics, length: f64) {
+        if length <= 0.0 {
+            return;
+        }
+        let n = (length / TURN_WINDOW_S).ceil().max(1.0);
+        let t = length / n;
+        for _ in 0..n as usize {
+            add_rest(self.kf, kin, self.t, t, self.effects);
+            self.kf.propagate(t);
+            self.t += t;
+        }
+    }
+
+    /// A turn or flip: steps of at most 0.1 s and 1° (2° of mean rate for
+    /// a flip, whose S-curve peaks at twice it), windows of at most 1 s.
+    fn turn(&mut self, traj: &Trajectory, k: usize, angle_rad: f64) {
+        let seg = &traj.segments()[k];
+        let length = seg.t1 - seg.t0;
+        let n_windows = (length / TURN_WINDOW_S).ceil().max(1.0) as usize;
+        let window = length / n_windows as f64;
+        // A flip's S-curve peaks at twice its mean rate.
+        let steps_total = (length / TURN_STEP_S)
+            .ceil()
+            .max(2.0 * angle_rad / TURN_STEP_RAD)
+            .max(1.0);
+        let per_window = (steps_total / n_windows as f64).ceil().max(1.0) as usize;
+        let h = window / per_window as f64;
+        let around = |t: f64| traj.kinematics(t);
+        for w in 0..n_windows {
+            let t_ws = seg.t0 + w as f64 * window;
+            for j in 0..per_window {
+                let tau = (j as f64 + 0.5) * h;
+                let kin = traj.kinematics_in(k, t_ws + tau);
+                add_step(self.kf, &kin, (h, tau), self.effects, &around, t_ws + tau);
+            }
+            self.kf.propagate(window);
+        }
+        self.t = seg.t1;
     }
 }

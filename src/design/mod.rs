@@ -7,11 +7,14 @@
 //!   `calib::plan` on the built-in schemes).
 //! - `search`: the beam search over turn sequences and the dwells.
 //! - `target`: per-parameter accuracy targets (Table 1, or a file).
+//! - `detect`: effects of given sizes the scheme must make the
+//!   discrepancy workflow name (`--detect`).
 //!
 //! A design meets `target / margin` in predicted σ, so that the target
 //! itself holds in nearly every run (margin 3: a parameter beyond its
 //! target is a 3σ event).
 
+pub mod detect;
 pub mod information;
 pub mod search;
 pub mod target;
@@ -26,9 +29,17 @@ use crate::model::PARAMETERS;
 use crate::nav::Site;
 use crate::sim::scheme::{Frame, DEFAULT_DWELL_S};
 use crate::sim::{HandTurns, Scheme};
+pub use detect::DetectGoal;
+use detect::{DetectOutcome, Detection};
 use information::{Information, ObjectiveSettings};
 use search::{Scorer, SearchSpace};
 pub use target::{Target, TargetError};
+
+/// Most turns a request may allow: a search's cost grows with it.
+const MAX_TURNS: usize = 96;
+
+/// Most `detect` goals in one request: every SPEC §3 quantity once.
+const MAX_DETECT_GOALS: usize = 6;
 
 /// Which axes the table can turn the unit about.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -54,6 +65,9 @@ pub enum DesignError {
     TimeLimit(f64),
     #[error(transparent)]
     Calib(#[from] CalibError),
+    /// The check of a `--detect` goal by the discrepancy workflow failed.
+    #[error(transparent)]
+    Diagnose(#[from] crate::diagnose::DiagnoseError),
 }
 
 /// What the engineer asks for.
@@ -68,6 +82,11 @@ pub struct DesignRequest {
     pub rate_dps: f64,
     pub accel_dps2: f64,
     pub min_dwell_s: f64,
+    /// Longest dwell the search considers, s (an hour unless a target out
+    /// of reach asks what it would take).
+    pub max_dwell_s: f64,
+    /// Most turns in the scheme.
+    pub max_turns: usize,
     /// Longest acceptable run, s.
     pub max_duration_s: Option<f64>,
     /// Predicted σ must be at most target / margin.
@@ -81,6 +100,10 @@ pub struct DesignRequest {
     pub initial_attitude_deg: [f64; 3],
     /// Most wall time the search may take, s; `None`: no limit.
     pub time_limit_s: Option<f64>,
+    /// Effects of given sizes the discrepancy workflow must name on a run
+    /// of the scheme.
+    #[serde(default)]
+    pub detect: Vec<DetectGoal>,
 }
 
 impl Default for DesignRequest {
@@ -95,6 +118,8 @@ impl Default for DesignRequest {
             rate_dps: 10.0,
             accel_dps2: 20.0,
             min_dwell_s: 60.0,
+            max_dwell_s: 3600.0,
+            max_turns: 24,
             max_duration_s: None,
             margin: 3.0,
             by_hand: false,
@@ -102,6 +127,7 @@ impl Default for DesignRequest {
             site: Site::REFERENCE,
             initial_attitude_deg: [0.0; 3],
             time_limit_s: None,
+            detect: Vec::new(),
         }
     }
 }
@@ -121,7 +147,8 @@ pub struct PredictedParameter {
 pub struct Comparison {
     pub scheme: String,
     /// The shortest uniform dwell that meets the goal, and the run's
-    /// duration with it; `None` when no dwell up to an hour does.
+    /// duration with it; `None` when no dwell up to the longest the search
+    /// considered does.
     pub dwell_s: Option<f64>,
     pub duration_s: Option<f64>,
     /// Its worst σ × margin / target at the default 600 s dwells.
@@ -138,7 +165,12 @@ pub struct Design {
     pub margin: f64,
     pub by_hand: bool,
     pub parameters: BTreeMap<String, PredictedParameter>,
-    /// The parameters within 5 % of their goal: what sets the length.
+    /// Each `--detect` goal: the size the scheme would name, predicted
+    /// and checked by the discrepancy workflow.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub detect: Vec<DetectOutcome>,
+    /// The parameters (and effects) within 5 % of their goal: what sets
+    /// the length.
     pub binding: Vec<String>,
     pub comparisons: Vec<Comparison>,
     /// How many schemes were scored.
@@ -159,7 +191,13 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
         dwell_window_s: 10.0,
         guard_s: opts.detect.guard_s,
         min_dwell_s: opts.detect.min_dwell_s,
+        effects: detection(req).map(|d| d.states).unwrap_or_default(),
     }
+}
+
+/// The request's `detect` goals as the objective scores them.
+fn detection(req: &DesignRequest) -> Option<Detection> {
+    (!req.detect.is_empty()).then(|| Detection::new(&req.detect, detect::naming_bar()))
 }
 
 fn validate(req: &DesignRequest, target: &Target) -> Result<(), DesignError> {
@@ -204,6 +242,24 @@ fn validate(req: &DesignRequest, target: &Target) -> Result<(), DesignError> {
             req.min_dwell_s
         )));
     }
+    within(
+        "the longest dwell (s)",
+        req.max_dwell_s,
+        req.min_dwell_s,
+        86_400.0,
+    )?;
+    if !(1..=MAX_TURNS).contains(&req.max_turns) {
+        return Err(DesignError::Invalid(format!(
+            "the most turns must be 1 to {MAX_TURNS}, got {}",
+            req.max_turns
+        )));
+    }
+    if req.detect.len() > MAX_DETECT_GOALS {
+        return Err(DesignError::Invalid(format!(
+            "at most {MAX_DETECT_GOALS} effects to detect, got {}",
+            req.detect.len()
+        )));
+    }
     for (p, a) in PARAMETERS.iter().zip(&target.accuracy) {
         let goal = a * p.si_per_unit / req.margin;
         if !(goal.is_normal() && goal > 0.0) {
@@ -229,16 +285,49 @@ pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
 }
 
 fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
+    let deadline = req
+        .time_limit_s
+        .map(|s| std::time::Instant::now() + std::time::Duration::from_secs_f64(s));
+    let mut detection = detection(req);
+    let mut round = 0;
+    loop {
+        let (mut design, info) = searched(req, detection.as_ref(), deadline)?;
+        let Some(d) = &mut detection else {
+            return Ok(design);
+        };
+        if deadline.is_some_and(|t| std::time::Instant::now() >= t) {
+            return Err(CalibError::Cancelled.into());
+        }
+        let run = realise(req, &design.scheme).map_err(DesignError::Invalid)?;
+        design.detect = detect::outcomes(d, &d.thresholds(&info), &run, req)?;
+        round += 1;
+        // The workflow is the judge: where it names less than the
+        // objective promised, the objective's goal is tightened by the
+        // difference and the search run again.
+        if round > detect::CHECK_ROUNDS || !d.correct(&design.detect) {
+            return Ok(design);
+        }
+    }
+}
+
+/// The scheme as it is run: turned by hand when the request says so.
+fn realise(req: &DesignRequest, s: &Scheme) -> Result<Scheme, String> {
+    if req.by_hand {
+        Scheme::by_hand(s, req.seed, &HandTurns::default())
+    } else {
+        Ok(s.clone())
+    }
+}
+
+/// The search with the objective's goals; the design and its information.
+fn searched(
+    req: &DesignRequest,
+    detection: Option<&Detection>,
+    deadline: Option<std::time::Instant>,
+) -> Result<(Design, Information), DesignError> {
     let target = req.target.clone().unwrap_or_else(Target::table1);
     let settings = objective_settings(req);
-    let hand = HandTurns::default();
-    let realise = |s: &Scheme| -> Result<Scheme, String> {
-        if req.by_hand {
-            Scheme::by_hand(s, req.seed, &hand)
-        } else {
-            Ok(s.clone())
-        }
-    };
+    let realise = |s: &Scheme| realise(req, s);
     let scorer = Scorer {
         settings: &settings,
         goal_si: target
@@ -247,11 +336,10 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
             .zip(PARAMETERS.iter())
             .map(|(a, p)| a * p.si_per_unit / req.margin)
             .collect(),
+        detect: detection,
         realise: &realise,
         evaluations: std::cell::Cell::new(0),
-        deadline: req
-            .time_limit_s
-            .map(|s| std::time::Instant::now() + std::time::Duration::from_secs_f64(s)),
+        deadline,
     };
     let frames: &[Frame] = match req.axes {
         Axes::Body => &[Frame::Body],
@@ -263,8 +351,8 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
         rate_dps: req.rate_dps,
         accel_dps2: req.accel_dps2,
         min_dwell_s: req.min_dwell_s,
-        max_dwell_s: 3600.0,
-        max_turns: 24,
+        max_dwell_s: req.max_dwell_s,
+        max_turns: req.max_turns,
         beam: 4,
     };
     // Rank sequences at a dwell near the answer's: a first search at 300 s
@@ -273,7 +361,8 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
     let Some(first) = first else {
         return Err(DesignError::Invalid(format!(
             "no sequence of up to {} turns with dwells up to {} s reaches the target at \
-             margin {}; {}",
+             margin {} (more --max-turns, or a longer --max-dwell, tells what it would \
+             take); {}",
             space.max_turns,
             space.max_dwell_s,
             req.margin,
@@ -306,9 +395,10 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
     }
     let comparisons = ["ten-position", "ten-position-9+9"]
         .iter()
-        .map(|name| compare(name, &scorer))
+        .map(|name| compare(name, &scorer, space.max_dwell_s))
         .collect::<Result<Vec<_>, _>>()?;
-    Ok(report(scheme, &info, &target, req, &scorer, comparisons))
+    let design = report(scheme, &info, &target, req, &scorer, comparisons);
+    Ok((design, info))
 }
 
 /// What stands in the way of an impossible target: the parameters the
@@ -317,12 +407,17 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
 fn out_of_reach(scorer: &Scorer, dwell_s: f64) -> Result<String, DesignError> {
     let reference = Scheme::builtin("ten-position-9+9", dwell_s).expect("a built-in scheme");
     let info = scorer.information(&reference)?;
-    let mut over: Vec<(f64, &str)> = scorer
+    let goals = scorer.detect.iter().flat_map(|d| &d.goals);
+    let mut over: Vec<(f64, String)> = scorer
         .ratios(&info)
         .into_iter()
-        .zip(PARAMETERS.iter())
+        .zip(
+            PARAMETERS
+                .iter()
+                .map(|p| p.name.to_string())
+                .chain(goals.map(|g| format!("detect {g}"))),
+        )
         .filter(|(r, _)| *r > 1.0)
-        .map(|(r, p)| (r, p.name))
         .collect();
     over.sort_by(|a, b| b.0.total_cmp(&a.0));
     let listed: Vec<String> = over
@@ -342,12 +437,13 @@ fn out_of_reach(scorer: &Scorer, dwell_s: f64) -> Result<String, DesignError> {
     ))
 }
 
-/// A built-in scheme on the same goal: the uniform dwell it needs.
-fn compare(name: &str, scorer: &Scorer) -> Result<Comparison, DesignError> {
+/// A built-in scheme on the same goal: the uniform dwell it needs, up to
+/// `max_dwell_s`.
+fn compare(name: &str, scorer: &Scorer, max_dwell_s: f64) -> Result<Comparison, DesignError> {
     let builtin = |d: f64| Scheme::builtin(name, d).expect("a built-in scheme");
     let worst_600 = scorer.worst(&scorer.information(&builtin(DEFAULT_DWELL_S))?);
     let min_dwell = EstimateOptions::default().detect.min_dwell_s;
-    let needed = search::shortest_dwell(scorer, min_dwell, 3600.0, builtin)?;
+    let needed = search::shortest_dwell(scorer, min_dwell, max_dwell_s, builtin)?;
     // Whole seconds, as a table's controller takes them.
     let (dwell_s, duration_s) = match needed {
         Some((d, _)) => {
@@ -389,11 +485,14 @@ fn report(
         })
         .collect();
     let worst = ratios.iter().copied().fold(0.0, f64::max);
+    let goals = scorer.detect.iter().flat_map(|d| &d.goals);
     let binding = PARAMETERS
         .iter()
+        .map(|p| p.name.to_string())
+        .chain(goals.map(|g| g.to_string()))
         .zip(&ratios)
         .filter(|(_, r)| **r >= 0.95 * worst)
-        .map(|(p, _)| p.name.to_string())
+        .map(|(name, _)| name)
         .collect();
     Design {
         scheme,
@@ -402,6 +501,7 @@ fn report(
         margin: req.margin,
         by_hand: req.by_hand,
         parameters,
+        detect: Vec::new(),
         binding,
         comparisons,
         evaluations: scorer.evaluations.get(),
@@ -440,6 +540,9 @@ impl Design {
                 p.name, q.sigma, q.target, q.ratio, q.unit
             );
         }
+        for d in &self.detect {
+            let _ = writeln!(s, "{}", d.describe());
+        }
         let _ = writeln!(s, "binding: {}", self.binding.join(", "));
         for c in &self.comparisons {
             match (c.dwell_s, c.duration_s) {
@@ -455,7 +558,7 @@ impl Design {
                 _ => {
                     let _ = writeln!(
                         s,
-                        "{}: does not reach the target with dwells up to an hour; worst ratio {:.2} at 600 s dwells",
+                        "{}: does not reach the target with the dwells searched; worst ratio {:.2} at 600 s dwells",
                         c.scheme, c.worst_ratio_at_600_s
                     );
                 }

@@ -15,6 +15,7 @@ use crate::calib::CalibError;
 use crate::sim::scheme::{Axis, Frame, Rotate, Step};
 use crate::sim::Scheme;
 
+use super::detect::Detection;
 use super::information::{scheme_information, Information, ObjectiveSettings};
 
 /// One turn of a candidate sequence.
@@ -66,11 +67,14 @@ impl SearchSpace {
 }
 
 /// How a candidate is scored: the predicted σ of each parameter against
-/// its goal (target over margin), in `PARAMETERS` order.
+/// its goal (target over margin), in `PARAMETERS` order, then each
+/// effect's threshold against its goal (size over `DETECT_MARGIN`).
 pub struct Scorer<'a> {
     pub settings: &'a ObjectiveSettings,
     /// Goal per parameter, SI.
     pub goal_si: Vec<f64>,
+    /// Effects to be named (`settings.effects` carries their states).
+    pub detect: Option<&'a Detection>,
     /// Turns a scheme into what is really run (hand turns); identity for
     /// a turntable.
     pub realise: &'a dyn Fn(&Scheme) -> Result<Scheme, String>,
@@ -94,13 +98,18 @@ impl Scorer<'_> {
         scheme_information(&run, self.settings)
     }
 
-    /// σ over goal, per parameter.
+    /// σ over goal, per parameter, then threshold over goal per effect.
     pub fn ratios(&self, info: &Information) -> Vec<f64> {
-        info.sigma_si
+        let mut ratios: Vec<f64> = info
+            .sigma_si
             .iter()
             .zip(&self.goal_si)
             .map(|(s, g)| s / g)
-            .collect()
+            .collect();
+        if let Some(d) = self.detect {
+            ratios.extend(d.ratios(info));
+        }
+        ratios
     }
 
     /// The largest σ over goal: the scheme meets the goal when ≤ 1.
