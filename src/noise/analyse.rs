@@ -72,7 +72,13 @@ pub fn analyse(
     }
     let mut acc = OverlappingAllan::new(sizes);
     let stretches = accumulate(source, &windows, tau0, &mut acc, cancel)?;
-    Ok(report(&acc, stretches, opts.span, run.sample_rate_hz, warnings))
+    Ok(report(
+        &acc,
+        stretches,
+        opts.span,
+        run.sample_rate_hz,
+        warnings,
+    ))
 }
 
 /// One pass: every record whose interval's middle lies in a window goes to

@@ -40,8 +40,7 @@ pub fn edf_stretch(kind: NoiseKind, records: u64, m: usize) -> f64 {
     let nu = match kind {
         NoiseKind::WhitePhase => (n + 1.0) * (n - 2.0 * m) / (2.0 * (n - m)),
         NoiseKind::WhiteRate => {
-            (3.0 * (n - 1.0) / (2.0 * m) - 2.0 * (n - 2.0) / n) * 4.0 * m * m
-                / (4.0 * m * m + 5.0)
+            (3.0 * (n - 1.0) / (2.0 * m) - 2.0 * (n - 2.0) / n) * 4.0 * m * m / (4.0 * m * m + 5.0)
         }
         NoiseKind::FlickerRate if m == 1.0 => 2.0 * (n - 2.0).powi(2) / (2.3 * n - 4.9),
         NoiseKind::FlickerRate => 5.0 * n * n / (4.0 * m * (n + 3.0 * m)),

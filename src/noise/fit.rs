@@ -211,7 +211,10 @@ mod tests {
         }
         // The absent term adds nothing visible even at the longest τ.
         let last = points.last().unwrap();
-        assert!(t.random_walk.powi(2) * last.tau_s / 3.0 < 1e-9 * last.avar, "{t:?}");
+        assert!(
+            t.random_walk.powi(2) * last.tau_s / 3.0 < 1e-9 * last.avar,
+            "{t:?}"
+        );
         assert!(fit.rms_z < 1e-6);
     }
 }
