@@ -155,7 +155,7 @@ fn nnls(points: &[CurvePoint], avar: &[f64], weights: &[f64]) -> [f64; 4] {
         // Columns scaled to unit norm: their sizes differ by the τ range
         // to the fourth power.
         let norms: Vec<f64> = (0..cols.len()).map(|j| a.column(j).norm()).collect();
-        if norms.iter().any(|n| !(*n > 0.0)) {
+        if norms.iter().any(|n| !n.is_finite() || *n <= 0.0) {
             continue;
         }
         for (j, n) in norms.iter().enumerate() {
