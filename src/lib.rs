@@ -4,7 +4,8 @@
 //! The library is organised by what each module owns (see
 //! `docs/ARCHITECTURE.md`): `nav` (Earth model, attitude algebra,
 //! strapdown), `model` (the 24-parameter error model and the extra effects),
-//! `sim` (schemes and record generation), `io` (run files, metadata, truth);
+//! `sim` (schemes and record generation), `io` (run files, metadata, truth),
+//! `noise` (Allan deviation and the noise terms);
 //! and the server: `store` (SQLite), `runfiles` (the run files on disk),
 //! `jobs` (durable queue, workers), `api` (HTTP), `server` (configuration,
 //! application).
@@ -19,6 +20,7 @@ pub mod jobs;
 pub mod metrics;
 pub mod model;
 pub mod nav;
+pub mod noise;
 pub mod pipeline;
 pub mod record;
 pub mod runfiles;

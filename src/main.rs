@@ -1,5 +1,7 @@
 //! The `sinscal` command line.
 
+mod cli_noise;
+
 use std::path::PathBuf;
 
 use anyhow::{bail, Context};
@@ -48,6 +50,10 @@ enum Command {
     /// name the effect outside the base model that explains it, add it
     /// and show the gap shrink.
     Diagnose(DiagnoseArgs),
+    /// The overlapping Allan deviation of every axis over the run's dwells
+    /// (or a whole static run) and the noise terms read from it: ARW/VRW,
+    /// bias instability, rate random walk.
+    Noise(cli_noise::NoiseArgs),
     /// Run the calibration server (HTTP API under /api/v1).
     Serve(sinscal::config::ServeArgs),
     /// Manage the server's bearer tokens.
@@ -558,6 +564,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Plan(a) => run_plan(a),
         Command::Diagnose(a) => run_diagnose(a),
         Command::Design(a) => run_design(a),
+        Command::Noise(a) => cli_noise::run_noise(&a, &read_metadata(&a.run, a.meta.as_deref())?),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Token(TokenCommand::Create {
             role,

@@ -1,6 +1,6 @@
-//! The one library function the CLI and the server call to calibrate a run
-//! stored on disk: its data file read in streaming passes, its metadata
-//! giving the site and rate.
+//! The library functions the CLI and the server call on a run stored on
+//! disk (calibrate, diagnose, noise analysis): its data file read in
+//! streaming passes, its metadata giving the site and rate.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -10,6 +10,7 @@ use crate::calib::{
 };
 use crate::io::data::{DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::RunMetadata;
+use crate::noise::{NoiseError, NoiseOptions, NoiseReport};
 use crate::record::Record;
 
 /// A run's data file, opened afresh for every pass of the estimator.
@@ -78,4 +79,26 @@ pub fn diagnose_file(
         sample_rate_hz: meta.sample_rate_hz,
     };
     crate::diagnose::diagnose(&source, &run, opts, progress, cancel)
+}
+
+/// The overlapping Allan deviation and noise terms of the run in `data`
+/// described by `meta`: the one function the CLI and the server call for a
+/// noise analysis. Reads the file twice (pre-scan, then the Allan sums).
+pub fn noise_file(
+    data: &Path,
+    meta: &RunMetadata,
+    opts: &NoiseOptions,
+    cancel: &AtomicBool,
+) -> Result<NoiseReport, NoiseError> {
+    let source = FileSource {
+        path: data.to_path_buf(),
+        format: meta.format,
+        sample_rate_hz: meta.sample_rate_hz,
+        limits: ReadLimits::default(),
+    };
+    let run = RunInfo {
+        site: meta.site(),
+        sample_rate_hz: meta.sample_rate_hz,
+    };
+    crate::noise::analyse(&source, &run, opts, cancel)
 }

@@ -6,6 +6,10 @@
 //! - those edges, and the edges between files, have no cycle;
 //! - no source file outside `tests/` is longer than 600 lines.
 //!
+//! The binary's own modules (declared by `mod x;` in `main.rs`, such as
+//! `cli_noise`) are part of the command line, not of the library: they are
+//! left out of the module table, and held to the line limit like any file.
+//!
 //! A child module naming its own ancestors' items (`super::AppState` in
 //! `api::upload`) is how a module shares its interface with its parts, not
 //! a cycle; every other edge counts, whichever way it points.
@@ -188,12 +192,27 @@ struct Tree {
     edges: BTreeMap<Vec<String>, BTreeSet<Vec<String>>>,
 }
 
+/// The modules `main.rs` declares (`mod x;`): the binary's own files,
+/// which name the library as `sinscal::…` and are no module of it.
+fn binary_modules(src: &Path) -> BTreeSet<String> {
+    let main = std::fs::read_to_string(src.join("main.rs")).unwrap();
+    code_only(&main)
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("mod ")?.strip_suffix(';'))
+        .map(|m| m.trim().to_string())
+        .collect()
+}
+
 fn read_tree() -> Tree {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let binary = binary_modules(&src);
     let mut files = BTreeMap::new();
     for f in rust_files(&src) {
         let name = f.file_name().unwrap().to_string_lossy().into_owned();
         if f.parent() == Some(src.as_path()) && (name == "lib.rs" || name == "main.rs") {
+            continue;
+        }
+        if binary.contains(&module_path(&src, &f)[0]) {
             continue;
         }
         files.insert(module_path(&src, &f), f);
@@ -405,7 +424,9 @@ fn the_stated_absences_hold() {
         }
     }
     let top = top_level_edges(&tree);
-    let core = ["nav", "model", "sim", "calib", "diagnose", "design", "io"];
+    let core = [
+        "nav", "model", "sim", "calib", "diagnose", "design", "io", "noise",
+    ];
     let server_side = [
         "store", "jobs", "api", "server", "config", "metrics", "runfiles",
     ];

@@ -6,6 +6,7 @@ use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
 use crate::io::data::{DataError, Position};
+use crate::noise::NoiseError;
 use crate::store::{is_storage_full_io, StoreError};
 
 /// How long a client is asked to wait after a full disk (507) before
@@ -103,6 +104,21 @@ impl From<std::io::Error> for ApiError {
             return ApiError::storage_full();
         }
         ApiError::Internal(format!("I/O: {e}"))
+    }
+}
+
+impl From<NoiseError> for ApiError {
+    fn from(e: NoiseError) -> Self {
+        match e {
+            // The stored run cannot be analysed as recorded.
+            NoiseError::TooShort { .. } | NoiseError::Unusable(_) => {
+                ApiError::Unprocessable(e.to_string())
+            }
+            // The server's own file or options: nothing the client can fix.
+            NoiseError::Source(_) | NoiseError::Options(_) | NoiseError::Cancelled => {
+                ApiError::Internal(format!("noise analysis: {e}"))
+            }
+        }
     }
 }
 

@@ -5,6 +5,7 @@
 pub mod auth;
 pub mod error;
 mod jobs;
+mod noise;
 mod runs;
 mod schemes;
 mod tokens;
@@ -47,6 +48,8 @@ pub struct AppState {
     pub uploads: Arc<Semaphore>,
     /// One scheme design at a time (each takes tens of CPU seconds).
     pub designs: Arc<Semaphore>,
+    /// Noise analyses computed at once (each reads a whole run twice).
+    pub noise_analyses: Arc<Semaphore>,
     /// Set at shutdown: uploads are refused, readiness fails.
     pub stopping: Arc<AtomicBool>,
 }
@@ -72,6 +75,7 @@ pub fn router(state: AppState) -> Router {
         .merge(operations.clone())
         .route("/openapi.yaml", get(openapi))
         .merge(runs::router())
+        .merge(noise::router())
         .merge(jobs::router())
         .merge(units::router())
         .merge(schemes::router())

@@ -106,6 +106,9 @@ impl Application {
             store,
             uploads: Arc::new(Semaphore::new(config.max_concurrent_uploads)),
             designs: Arc::new(Semaphore::new(1)),
+            // One at a time: an analysis takes a core for about a second
+            // per 3 h of 100 Hz run, and the workers need theirs.
+            noise_analyses: Arc::new(Semaphore::new(1)),
             config: Arc::new(config),
             metrics,
             wake: Arc::new(Notify::new()),
