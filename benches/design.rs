@@ -3,14 +3,21 @@
 //!
 //! `cargo bench --bench design` runs the Table 1 design at navigation-grade
 //! noise (ARW 0.0003 deg/√h, VRW 5 µg/√Hz, body axes, 10 °/s, margin 3),
-//! the same at margin 2.2, three times tighter (margin 3), and for a table
-//! with navigation axes; `-- --quick` only the objective.
+//! the same at margin 2.2, three times tighter (margin 3), for a table
+//! with navigation axes, with a 2 cm lever arm and a 0.5 ms delay to detect
+//! (margin 3 and 2.2), and a gyro drift to detect at tactical noise, where
+//! the workflow's check tightens the objective for a second search;
+//! `-- --quick` only the objective.
 
 use std::time::Instant;
 
 use sinscal::design::information::scheme_information;
-use sinscal::design::{design, objective_settings, Axes, DesignRequest, Target};
+use sinscal::design::{design, objective_settings, Axes, DesignRequest, DetectGoal, Target};
 use sinscal::sim::Scheme;
+
+fn goals(items: &[&str]) -> Vec<DetectGoal> {
+    items.iter().map(|g| g.parse().unwrap()).collect()
+}
 
 fn main() {
     let quick = std::env::args().any(|a| a == "--quick");
@@ -55,18 +62,50 @@ fn main() {
                 ..DesignRequest::default()
             },
         ),
+        (
+            "table1, margin 3, detect accel_lever_arm=2cm,accel_delay=0.5ms",
+            DesignRequest {
+                detect: goals(&["accel_lever_arm=2cm", "accel_delay=0.5ms"]),
+                ..DesignRequest::default()
+            },
+        ),
+        (
+            "table1, margin 2.2, detect accel_lever_arm=2cm,accel_delay=0.5ms",
+            DesignRequest {
+                margin: 2.2,
+                detect: goals(&["accel_lever_arm=2cm", "accel_delay=0.5ms"]),
+                ..DesignRequest::default()
+            },
+        ),
+        (
+            "tactical (ARW 0.001, VRW 10), table1 × 5, detect bias_drift=0.03deg/h/h",
+            DesignRequest {
+                target: Some(Target::table1().tightened(0.2)),
+                noise: sinscal::calib::NoiseDensity {
+                    gyro_arw_deg_rt_h: 0.001,
+                    accel_vrw_ug_rt_hz: 10.0,
+                },
+                detect: goals(&["bias_drift=0.03deg/h/h"]),
+                ..DesignRequest::default()
+            },
+        ),
     ];
     for (what, req) in cases {
         let t = Instant::now();
         match design(&req) {
-            Ok(d) => println!(
-                "design {what}: {:.2} h ({} dwells), binding {:?}, {} schemes scored in {:.1} s",
-                d.duration_s / 3600.0,
-                d.scheme.counts().0,
-                d.binding,
-                d.evaluations,
-                t.elapsed().as_secs_f64()
-            ),
+            Ok(d) => {
+                println!(
+                    "design {what}: {:.2} h ({} dwells), binding {:?}, {} schemes scored in {:.1} s",
+                    d.duration_s / 3600.0,
+                    d.scheme.counts().0,
+                    d.binding,
+                    d.evaluations,
+                    t.elapsed().as_secs_f64()
+                );
+                for o in &d.detect {
+                    println!("  {}", o.describe());
+                }
+            }
             Err(e) => println!("design {what}: {e} ({:.1} s)", t.elapsed().as_secs_f64()),
         }
     }
