@@ -6,7 +6,9 @@
 //! x_j = Σ_{k≤j} u_k give the textbook estimator (IEEE Std 1293 Annex,
 //! NIST SP 1065 eq. 14)
 //!
-//!     σ²(τ) = Σ_j (x_{j+2m} − 2 x_{j+m} + x_j)² / (2 τ² (n + 1 − 2m)),
+//! ```text
+//! σ²(τ) = Σ_j (x_{j+2m} − 2 x_{j+m} + x_j)² / (2 τ² (n + 1 − 2m)),
+//! ```
 //!
 //! which is the variance of the difference of adjacent τ-averages of the
 //! rate, taken at every start j (fully overlapping). Each new x_j closes

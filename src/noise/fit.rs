@@ -3,7 +3,9 @@
 //! The model (IEEE Std 952 Annex C, IEEE Std 1293 Annex J) is the sum of
 //! independent processes, each with its own slope:
 //!
-//!     σ²(τ) = 3Q²/τ² + N²/τ + (2 ln 2/π) B² + K² τ/3
+//! ```text
+//! σ²(τ) = 3Q²/τ² + N²/τ + (2 ln 2/π) B² + K² τ/3
+//! ```
 //!
 //! Q quantization, N the white-rate density (ARW, VRW), B the flicker
 //! floor ("bias instability": the flat part of the Allan deviation is
