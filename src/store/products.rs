@@ -143,7 +143,7 @@ impl Store {
         .bind(by)
         .execute(&mut *tx)
         .await?;
-        refresh_product(&mut *tx, name, now).await?;
+        refresh_product(&mut tx, name, now).await?;
         tx.commit().await?;
         Ok(true)
     }
@@ -180,7 +180,7 @@ async fn record_revision(
     .bind(change.by)
     .execute(&mut **tx)
     .await?;
-    refresh_product(&mut **tx, change.name, now).await?;
+    refresh_product(tx, change.name, now).await?;
     Ok(sqlx::query_as(&format!(
         "SELECT {COLUMNS} FROM product_types WHERE name = ?"
     ))

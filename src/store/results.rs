@@ -339,7 +339,7 @@ pub(super) async fn insert_result(
     // Its verdict, and those of any results after it in the unit's history
     // (their repeatability now includes it).
     refresh_unit(
-        &mut **tx,
+        tx,
         r.unit_serial,
         Some((r.run_time, r.run_id)),
         r.completed_at,

@@ -253,7 +253,7 @@ impl Store {
             sqlx::query(sql).bind(id).execute(&mut *tx).await?;
         }
         // Later results lose this one from their repeatability.
-        refresh_unit(&mut *tx, &serial, Some((run_time, id)), now_ms()).await?;
+        refresh_unit(&mut tx, &serial, Some((run_time, id)), now_ms()).await?;
         tx.commit().await?;
         Ok(RunDeletion::Deleted { blob_path })
     }
@@ -288,5 +288,5 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     .bind(&new.product)
     .execute(&mut **tx)
     .await?;
-    refresh_unit_row(&mut **tx, &new.unit_serial).await
+    refresh_unit_row(tx, &new.unit_serial).await
 }
