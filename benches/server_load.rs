@@ -190,6 +190,7 @@ async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
                 uploaded_at: t0,
                 max_attempts: 3,
                 uploaded_by: None,
+                product: None,
             };
             store.seed_calibrated_run(&new, &params).await.unwrap();
         }

@@ -5,11 +5,13 @@
 //! `docs/ARCHITECTURE.md`): `nav` (Earth model, attitude algebra,
 //! strapdown), `model` (the 24-parameter error model and the extra effects),
 //! `sim` (schemes and record generation), `io` (run files, metadata, truth),
-//! `noise` (Allan deviation and the noise terms);
+//! `noise` (Allan deviation and the noise terms), `accept` (product
+//! types' limits and the verdict on a result);
 //! and the server: `store` (SQLite), `runfiles` (the run files on disk),
 //! `jobs` (durable queue, workers), `api` (HTTP), `server` (configuration,
 //! application).
 
+pub mod accept;
 pub mod api;
 pub mod calib;
 pub mod config;

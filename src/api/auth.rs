@@ -70,9 +70,9 @@ pub mod roles {
     /// Read a run or a job: stations follow the Location of their own
     /// uploads only (see [`Auth::may_read_run`]).
     pub const FOLLOW: &[Role] = &[Role::Station, Role::Engineer, Role::Admin];
-    /// Read results, units, history, statistics; cancel jobs.
+    /// Read results, units, history, statistics, product types; cancel jobs.
     pub const ENGINEER: &[Role] = &[Role::Engineer, Role::Admin];
-    /// Tokens and deletes.
+    /// Tokens, deletes, product types.
     pub const ADMIN: &[Role] = &[Role::Admin];
 }
 

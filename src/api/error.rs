@@ -5,6 +5,7 @@ use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use serde::Serialize;
 
+use crate::accept::LimitError;
 use crate::io::data::{DataError, Position};
 use crate::noise::NoiseError;
 use crate::store::{is_storage_full_io, StoreError};
@@ -15,12 +16,14 @@ pub const STORAGE_FULL_RETRY_AFTER_S: u64 = 60;
 
 pub const PROBLEM_JSON: &str = "application/problem+json";
 
-/// Where in an uploaded data file a problem was found.
-#[derive(Clone, Copy, Debug, Serialize)]
+/// Where a problem was found: in an uploaded data file, or in a request
+/// body's field.
+#[derive(Clone, Debug, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ProblemPosition {
     Line(u64),
     Record(u64),
+    Field(String),
 }
 
 /// Everything a handler can answer besides success.
@@ -60,6 +63,10 @@ pub enum ApiError {
     /// 431: the request's header fields are too large or too many.
     #[error("{0}")]
     HeadersTooLarge(String),
+    /// 422: a field of the request body is invalid; `field` names it (a
+    /// dotted path such as `limits.gyro_bias_x.max_sigma`).
+    #[error("{field}: {message}")]
+    InvalidField { field: String, message: String },
     /// 422: the metadata is invalid.
     #[error("{0}")]
     InvalidMetadata(String),
@@ -122,6 +129,15 @@ impl From<NoiseError> for ApiError {
     }
 }
 
+impl From<LimitError> for ApiError {
+    fn from(e: LimitError) -> Self {
+        ApiError::InvalidField {
+            field: e.field,
+            message: e.message,
+        }
+    }
+}
+
 impl From<axum::extract::rejection::PathRejection> for ApiError {
     fn from(e: axum::extract::rejection::PathRejection) -> Self {
         ApiError::BadRequest(e.body_text())
@@ -157,6 +173,8 @@ struct Problem<'a> {
     line: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     record: Option<u64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    field: Option<String>,
 }
 
 /// A problem+json response for a status with no more to say than its
@@ -173,11 +191,13 @@ fn render(
     detail: String,
     at: Option<ProblemPosition>,
 ) -> Response {
-    let (line, record) = match at {
-        Some(ProblemPosition::Line(l)) => (Some(l), None),
-        Some(ProblemPosition::Record(r)) => (None, Some(r)),
-        None => (None, None),
-    };
+    let (mut line, mut record, mut field) = (None, None, None);
+    match at {
+        Some(ProblemPosition::Line(l)) => line = Some(l),
+        Some(ProblemPosition::Record(r)) => record = Some(r),
+        Some(ProblemPosition::Field(f)) => field = Some(f),
+        None => {}
+    }
     let body = Problem {
         kind,
         title,
@@ -185,6 +205,7 @@ fn render(
         detail,
         line,
         record,
+        field,
     };
     let json = serde_json::to_vec(&body).unwrap_or_else(|_| b"{}".to_vec());
     let mut resp = (status, json).into_response();
@@ -290,6 +311,13 @@ impl IntoResponse for ApiError {
                 "Payload Too Large",
                 detail,
                 None,
+            ),
+            ApiError::InvalidField { field, .. } => render(
+                StatusCode::UNPROCESSABLE_ENTITY,
+                "urn:sinscal:problem:invalid-field",
+                "Invalid field",
+                detail,
+                Some(ProblemPosition::Field(field)),
             ),
             ApiError::InvalidMetadata(_) => render(
                 StatusCode::UNPROCESSABLE_ENTITY,

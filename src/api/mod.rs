@@ -6,6 +6,7 @@ pub mod auth;
 pub mod error;
 mod jobs;
 mod noise;
+mod products;
 mod runs;
 mod schemes;
 mod tokens;
@@ -80,6 +81,7 @@ pub fn router(state: AppState) -> Router {
         .merge(units::router())
         .merge(schemes::router())
         .merge(tokens::router())
+        .merge(products::router())
         .merge(upload)
         .method_not_allowed_fallback(|| async { ApiError::MethodNotAllowed });
     Router::new()

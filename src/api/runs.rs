@@ -16,9 +16,10 @@ use super::error::ApiError;
 use super::jobs::JobView;
 use super::upload::queue_full;
 use super::{parse_id, rfc3339, AppState};
+use crate::accept::Verdict;
 use crate::diagnose::DiagnoseReport;
 use crate::runfiles::RunFiles;
-use crate::store::{DiagnoseQueued, JobRow, Review, RunDeletion, RunRow};
+use crate::store::{DiagnoseQueued, JobRow, Review, RunDeletion, RunRow, StoredVerdict};
 
 #[derive(Serialize)]
 pub struct RunView {
@@ -40,6 +41,37 @@ pub struct RunView {
     /// The result's model check in brief, once there is a result.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub model_check: Option<ModelCheckBrief>,
+    /// The result's verdict, once there is a result.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<VerdictView>,
+}
+
+/// A verdict as the run, result, history and unit views show it:
+/// `status`, `failed`, `reasons` (CONTRACT §6a), and what it was judged on.
+#[derive(Serialize)]
+pub struct VerdictView {
+    #[serde(flatten)]
+    pub verdict: Verdict,
+    /// The run judged.
+    pub run_id: String,
+    /// The product its metadata names (null: none, no limits applied).
+    pub product: Option<String>,
+    /// The product type's revision applied (null: no product type).
+    pub product_revision: Option<i64>,
+    /// When the stored verdict last changed.
+    pub judged_at: String,
+}
+
+impl From<StoredVerdict> for VerdictView {
+    fn from(v: StoredVerdict) -> Self {
+        VerdictView {
+            verdict: v.verdict,
+            run_id: v.run_id,
+            product: v.product,
+            product_revision: v.revision,
+            judged_at: rfc3339(v.judged_at),
+        }
+    }
 }
 
 /// A model check as run and history views show it; the whole check is in
@@ -61,7 +93,9 @@ impl ModelCheckBrief {
 
 impl RunView {
     fn from_row(r: RunRow) -> Result<Self, ApiError> {
+        let verdict = r.verdict()?.map(VerdictView::from);
         Ok(RunView {
+            verdict,
             metadata: serde_json::from_str(&r.file.metadata)
                 .map_err(|e| ApiError::Internal(e.to_string()))?,
             id: r.id,
@@ -113,15 +147,18 @@ async fn get_result(
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
-    if let Some(json) = st.store.get_result(&id).await? {
-        // Stored as serialized by the estimator's own types: served as is.
-        return Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response());
-    }
     let run = st
         .store
         .get_run(&id)
         .await?
         .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
+    if let Some(json) = st.store.get_result(&id).await? {
+        // Stored as serialized by the estimator's own types: served as is,
+        // with the verdict (which changes with the limits) put in front.
+        let verdict = run.verdict()?.map(VerdictView::from);
+        let json = with_verdict(json, verdict.as_ref())?;
+        return Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response());
+    }
     let state = st
         .store
         .get_job(&run.job_id)
@@ -131,6 +168,26 @@ async fn get_result(
         "run {id} has no result: its job {} is {state}",
         run.job_id
     )))
+}
+
+/// A stored result document (a JSON object) with `"verdict"` as its first
+/// member, without parsing the document (most of it is the convergence
+/// history).
+fn with_verdict(doc: String, verdict: Option<&VerdictView>) -> Result<String, ApiError> {
+    let Some(verdict) = verdict else {
+        return Ok(doc);
+    };
+    let body = doc
+        .trim_start()
+        .strip_prefix('{')
+        .ok_or_else(|| ApiError::Internal("a stored result is not a JSON object".into()))?;
+    let verdict = serde_json::to_string(verdict).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let sep = if body.trim_start().starts_with('}') {
+        ""
+    } else {
+        ","
+    };
+    Ok(format!("{{\"verdict\":{verdict}{sep}{body}"))
 }
 
 async fn delete_run(

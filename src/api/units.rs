@@ -12,20 +12,25 @@ use serde::{Deserialize, Serialize};
 
 use super::auth::{roles, Auth};
 use super::error::ApiError;
-use super::runs::ModelCheckBrief;
+use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
-use crate::io::meta::validate_serial;
+use crate::accept::VerdictStatus;
+use crate::io::meta::{validate_product, validate_serial};
 use crate::model::PARAMETERS;
-use crate::store::{Review, UnitSummary};
+use crate::store::{Review, UnitFilter, UnitSummary};
 
 const MAX_PAGE: i64 = 1000;
 const DEFAULT_PAGE: i64 = 100;
 const MAX_OFFSET: i64 = 1_000_000_000;
 
 #[derive(Debug, Deserialize)]
-pub struct PageQuery {
+pub struct UnitsQuery {
     limit: Option<i64>,
     offset: Option<i64>,
+    /// Units whose latest calibrated run has this verdict.
+    verdict: Option<VerdictStatus>,
+    /// Units whose latest run names this product.
+    product: Option<String>,
 }
 
 fn page(limit: Option<i64>, offset: Option<i64>) -> Result<(i64, i64), ApiError> {
@@ -51,17 +56,26 @@ pub struct UnitView {
     pub runs: i64,
     pub calibrated: i64,
     pub last_run_time: Option<String>,
+    /// The product its latest run names.
+    pub product: Option<String>,
+    /// The verdict of its latest calibrated run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<VerdictView>,
 }
 
-impl From<UnitSummary> for UnitView {
-    fn from(u: UnitSummary) -> Self {
-        UnitView {
+impl TryFrom<UnitSummary> for UnitView {
+    type Error = ApiError;
+    fn try_from(u: UnitSummary) -> Result<Self, ApiError> {
+        let verdict = u.verdict()?.map(VerdictView::from);
+        Ok(UnitView {
             serial: u.serial,
             created_at: rfc3339(u.created_at),
             runs: u.runs,
             calibrated: u.calibrated,
             last_run_time: u.last_run_time.map(rfc3339),
-        }
+            product: u.product,
+            verdict,
+        })
     }
 }
 
@@ -87,6 +101,8 @@ pub struct HistoryQuery {
     offset: Option<i64>,
     from: Option<String>,
     to: Option<String>,
+    /// Only results with this verdict.
+    verdict: Option<VerdictStatus>,
 }
 
 #[derive(Serialize)]
@@ -102,6 +118,8 @@ pub struct HistoryItem {
     pub review: Review,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub model_check: Option<ModelCheckBrief>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<VerdictView>,
 }
 
 #[derive(Serialize)]
@@ -164,17 +182,27 @@ fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<String, ApiErr
 async fn list_units(
     State(st): State<AppState>,
     auth: Auth,
-    query: Result<Query<PageQuery>, QueryRejection>,
+    query: Result<Query<UnitsQuery>, QueryRejection>,
 ) -> Result<Json<UnitList>, ApiError> {
     auth.require(roles::ENGINEER)?;
     let Query(q) = query?;
     let (limit, offset) = page(q.limit, q.offset)?;
-    let (total, rows) = st.store.list_units(limit, offset).await?;
+    if let Some(p) = &q.product {
+        validate_product(p).map_err(ApiError::BadRequest)?;
+    }
+    let filter = UnitFilter {
+        verdict: q.verdict,
+        product: q.product,
+    };
+    let (total, rows) = st.store.list_units(&filter, limit, offset).await?;
     Ok(Json(UnitList {
         total,
         limit,
         offset,
-        items: rows.into_iter().map(Into::into).collect(),
+        items: rows
+            .into_iter()
+            .map(TryInto::try_into)
+            .collect::<Result<_, _>>()?,
     }))
 }
 
@@ -192,7 +220,7 @@ async fn get_unit(
         .ok_or_else(|| ApiError::NotFound(format!("no unit {serial}")))?;
     let jobs = st.store.unit_job_counts(&serial).await?;
     Ok(Json(UnitDetail {
-        unit: unit.into(),
+        unit: unit.try_into()?,
         jobs,
     }))
 }
@@ -221,11 +249,15 @@ async fn history(
     if st.store.get_unit(&serial).await?.is_none() {
         return Err(ApiError::NotFound(format!("no unit {serial}")));
     }
-    let (total, rows) = st.store.history(&serial, from, to, limit, offset).await?;
+    let (total, rows) = st
+        .store
+        .history(&serial, (from, to), q.verdict, limit, offset)
+        .await?;
     let items = rows
         .into_iter()
         .map(|r| {
             Ok(HistoryItem {
+                verdict: r.verdict()?.map(VerdictView::from),
                 parameters: serde_json::value::RawValue::from_string(r.parameters)
                     .map_err(|e| ApiError::Internal(e.to_string()))?,
                 run_id: r.run_id,

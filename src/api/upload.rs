@@ -565,6 +565,7 @@ async fn store_run(
         uploaded_at: now_ms(),
         max_attempts: st.config.max_attempts,
         uploaded_by: Some(auth.token_id.clone()),
+        product: meta.product.clone(),
     };
     match st
         .store

@@ -185,10 +185,12 @@ pub(crate) fn estimate_scanned(
 
     let prior = prior_sigma(opts.prior_scale);
     let mut warnings: Vec<String> = unsettled.into_iter().collect();
+    let mut poorly_observable = Vec::new();
     let mut parameters = std::collections::BTreeMap::new();
     for (i, info) in PARAMETERS.iter().enumerate() {
         let sigma = last.sigma[i];
         if sigma > POORLY_OBSERVABLE * prior[i] {
+            poorly_observable.push(info.name.to_string());
             warnings.push(format!(
                 "{} is poorly observable on this run's scheme: its σ is {:.0}% of the prior",
                 info.name,
@@ -209,6 +211,7 @@ pub(crate) fn estimate_scanned(
         let sigma = last.sigma[N_PARAMS + j];
         let prior_si = state.prior_sigma() * state.si_per_unit();
         if sigma > POORLY_OBSERVABLE * prior_si {
+            poorly_observable.push(state.name());
             warnings.push(format!(
                 "{} is poorly observable on this run's scheme: its σ is {:.0}% of the prior",
                 state.name(),
@@ -249,6 +252,7 @@ pub(crate) fn estimate_scanned(
         parameters,
         effects: effect_estimates,
         warnings,
+        poorly_observable,
         passes,
         records: scan.n_records,
         duration_s: scan.t_end - scan.t_begin,

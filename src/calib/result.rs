@@ -89,6 +89,12 @@ pub struct CalibrationResult {
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub effects: BTreeMap<String, ParameterEstimate>,
     pub warnings: Vec<String>,
+    /// Parameters (and effect states) the run left poorly observable: σ
+    /// above half the prior, so much of the estimate is the prior's. The
+    /// same parameters are named in `warnings`; absent when none (and in
+    /// results stored before the list existed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub poorly_observable: Vec<String>,
     pub passes: u32,
     pub records: u64,
     pub duration_s: f64,

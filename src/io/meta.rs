@@ -40,22 +40,31 @@ pub const MAX_SERIAL_LEN: usize = 64;
 /// Checks a unit serial: 1–64 characters, letters, digits, `-`, `_`, `.`,
 /// starting with a letter or digit (so it can never be `.` or `..`).
 pub fn validate_serial(serial: &str) -> Result<(), String> {
+    validate_name("unit_serial", serial)
+}
+
+/// Checks a product type's name (metadata `product`, the API's
+/// `/product-types/{name}`): the rule of a unit serial, since it too
+/// becomes a path segment.
+pub fn validate_product(name: &str) -> Result<(), String> {
+    validate_name("product", name)
+}
+
+fn validate_name(what: &str, name: &str) -> Result<(), String> {
     let ok_char = |c: char| c.is_ascii_alphanumeric() || matches!(c, '-' | '_' | '.');
-    if serial.is_empty() || serial.len() > MAX_SERIAL_LEN {
+    if name.is_empty() || name.len() > MAX_SERIAL_LEN {
         return Err(format!(
-            "unit_serial must be 1 to {MAX_SERIAL_LEN} characters, got {}",
-            serial.len()
+            "{what} must be 1 to {MAX_SERIAL_LEN} characters, got {}",
+            name.len()
         ));
     }
-    if let Some(bad) = serial.chars().find(|c| !ok_char(*c)) {
+    if let Some(bad) = name.chars().find(|c| !ok_char(*c)) {
         return Err(format!(
-            "unit_serial {serial:?} contains {bad:?}: only letters, digits, '-', '_' and '.' are allowed"
+            "{what} {name:?} contains {bad:?}: only letters, digits, '-', '_' and '.' are allowed"
         ));
     }
-    if !serial.starts_with(|c: char| c.is_ascii_alphanumeric()) {
-        return Err(format!(
-            "unit_serial {serial:?} must start with a letter or digit"
-        ));
+    if !name.starts_with(|c: char| c.is_ascii_alphanumeric()) {
+        return Err(format!("{what} {name:?} must start with a letter or digit"));
     }
     Ok(())
 }
@@ -91,6 +100,10 @@ pub struct RunMetadata {
     pub recorded_at: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature_c: Option<f64>,
+    /// The product type the unit is built to (its acceptance limits are
+    /// the server's product type of this name).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub product: Option<String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub notes: Option<String>,
     /// Fields this version does not know, kept so nothing a station sent
@@ -128,6 +141,9 @@ impl RunMetadata {
         };
         validate_serial(&self.unit_serial).map_err(invalid)?;
         check_rate(self.sample_rate_hz).map_err(invalid)?;
+        if let Some(product) = &self.product {
+            validate_product(product).map_err(invalid)?;
+        }
         self.site().validate().map_err(invalid)?;
         if let Some(t) = self.temperature_c {
             if !t.is_finite() {
@@ -292,6 +308,22 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.to_string().contains("unit_serial"));
+    }
+
+    #[test]
+    fn product_is_a_name_like_a_serial() {
+        let meta = |product: &str| {
+            format!(
+                r#"{{"unit_serial": "A1", "sample_rate_hz": 100, "latitude_deg": 0,
+                    "longitude_deg": 0, "height_m": 0, "product": {product}}}"#
+            )
+        };
+        let m = RunMetadata::from_json(meta("\"SINS-90\"").as_bytes()).unwrap();
+        assert_eq!(m.product.as_deref(), Some("SINS-90"));
+        assert!(m.extra.is_empty());
+        let err = RunMetadata::from_json(meta("\"a/b\"").as_bytes()).unwrap_err();
+        assert!(err.to_string().contains("product"), "{err}");
+        assert!(RunMetadata::from_json(meta("7").as_bytes()).is_err());
     }
 
     #[test]

@@ -102,6 +102,7 @@ pub fn write_simulated_run(
         operator: None,
         recorded_at: None,
         temperature_c: None,
+        product: None,
         notes: Some("simulated run".into()),
         extra: Default::default(),
     };

@@ -27,6 +27,7 @@ use sqlx::Row;
 
 use super::error::StoreError;
 use super::spread;
+use super::verdicts;
 use crate::calib::ParameterEstimate;
 
 /// The migrations in `migrations/`, embedded in the binary so that a fresh
@@ -79,6 +80,10 @@ impl Store {
             .await?;
         MIGRATOR.run(&write).await?;
         backfill_param_values(&write).await?;
+        {
+            let mut conn = write.acquire().await?;
+            verdicts::backfill(&mut conn, now_ms()).await?;
+        }
         let read = SqlitePoolOptions::new()
             .max_connections(readers.max(1))
             .acquire_timeout(Duration::from_secs(30))

@@ -14,6 +14,9 @@ pub enum StoreError {
     Migrate(#[from] sqlx::migrate::MigrateError),
     #[error("stored JSON is malformed: {0}")]
     Json(#[from] serde_json::Error),
+    /// A stored value the library refuses (e.g. a product type's limits).
+    #[error("stored data is invalid: {0}")]
+    Corrupt(String),
 }
 
 /// SQLite's primary result code for "database or disk is full".

@@ -1,5 +1,5 @@
 //! The closed vocabularies the database stores as TEXT: a token's role, a
-//! job's kind and its state. Each is an enum in Rust; its `as_str` is the
+//! job's kind and its state, a result's verdict (`accept::VerdictStatus`). Each is an enum in Rust; its `as_str` is the
 //! one spelling, used for the column (sqlx `Type`/`Encode`/`Decode`) and
 //! for parsing (`FromStr`); JSON uses the same lowercase names. The
 //! spellings are the values the schema's CHECK constraints allow, so no
@@ -16,6 +16,8 @@ use std::str::FromStr;
 use sqlx::encode::IsNull;
 use sqlx::error::BoxDynError;
 use sqlx::sqlite::{Sqlite, SqliteArgumentValue, SqliteTypeInfo, SqliteValueRef};
+
+use crate::accept::VerdictStatus;
 
 /// A bearer token's role.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
@@ -164,7 +166,12 @@ macro_rules! stored_as_text {
     )*};
 }
 
-stored_as_text!(Role: "role", JobKind: "job kind", JobState: "job state");
+stored_as_text!(
+    Role: "role",
+    JobKind: "job kind",
+    JobState: "job state",
+    VerdictStatus: "verdict"
+);
 
 #[cfg(test)]
 mod tests {
@@ -198,5 +205,9 @@ mod tests {
         );
         assert!(serde_json::from_str::<JobState>("\"paused\"").is_err());
         assert!(serde_json::from_str::<Role>("\"Admin\"").is_err());
+        for v in VerdictStatus::ALL {
+            assert_eq!(v.as_str().parse::<VerdictStatus>(), Ok(v));
+            assert_eq!(serde_json::to_value(v).unwrap(), v.as_str());
+        }
     }
 }

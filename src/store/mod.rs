@@ -16,24 +16,33 @@
 //! - `queue`: what a worker does to the job it holds (claim, heartbeat,
 //!   complete, fail, cancel, release), every write behind one fence;
 //! - `results`: results, diagnoses, units, history, repeatability;
-//! - `spread`: the per-result value blob and its statistics.
+//! - `spread`: the per-result value blob and its statistics;
+//! - `verdicts`: each result's verdict (`accept::judge`) kept up to date
+//!   in its row and the unit's (on any connection: a leaf but for
+//!   `spread`, `error`);
+//! - `products`: product types, their revisions, and the verdicts judged
+//!   again when one changes.
 
 mod db;
 mod error;
 mod jobs;
 mod kinds;
+mod products;
 mod queue;
 mod results;
 mod runs;
 mod spread;
 mod tokens;
+mod verdicts;
 
 pub use db::{now_ms, Store};
 pub use error::{is_storage_full_io, StoreError};
 pub use jobs::{DiagnoseQueued, JobRow};
 pub use kinds::{JobKind, JobState, Role};
+pub use products::{ProductTypeChange, ProductTypeRow};
 pub use queue::{Claim, Fence, OnInadequate};
-pub use results::{HistoryRow, UnitSummary};
+pub use results::{HistoryRow, UnitFilter, UnitSummary};
 pub use runs::{InsertOutcome, NewRun, Review, RunDeletion, RunFile, RunRow};
 pub use spread::ParamSpread;
 pub use tokens::TokenRow;
+pub use verdicts::StoredVerdict;

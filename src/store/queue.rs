@@ -240,6 +240,11 @@ impl Store {
             completed_at: now,
             parameters: &result.parameters,
             model_check: result.model_check.as_ref(),
+            poorly_observable: &result.poorly_observable,
+            cross_check_flagged: result
+                .cross_check
+                .as_ref()
+                .map_or(&[], |c| c.flagged.as_slice()),
             document: &result_json,
         };
         insert_result(&mut tx, &stored).await?;
@@ -368,6 +373,7 @@ mod tests {
             uploaded_at: 0,
             max_attempts: 2,
             uploaded_by: None,
+            product: None,
         };
         let outcome = store.insert_run_and_job(&new, 10).await.unwrap();
         assert_eq!(outcome, InsertOutcome::Created);

@@ -11,6 +11,8 @@ use super::error::StoreError;
 use super::jobs::by_state_name;
 use super::runs::{insert_unit_and_run, NewRun};
 use super::spread::{self, ParamSpread, SpreadAccumulator};
+use super::verdicts::{refresh_unit, StoredVerdict};
+use crate::accept::VerdictStatus;
 use crate::calib::{ModelCheck, ParameterEstimate};
 
 #[derive(Clone, Debug, FromRow)]
@@ -20,6 +22,40 @@ pub struct UnitSummary {
     pub runs: i64,
     pub calibrated: i64,
     pub last_run_time: Option<i64>,
+    /// The product its latest run names.
+    pub product: Option<String>,
+    /// The verdict of its latest calibrated run (the columns of
+    /// [`UnitSummary::verdict`]).
+    pub verdict_run_id: Option<String>,
+    pub verdict_detail: Option<String>,
+    pub verdict_product: Option<String>,
+    pub verdict_revision: Option<i64>,
+    pub verdict_at: Option<i64>,
+}
+
+impl UnitSummary {
+    /// The verdict of the unit's latest calibrated run.
+    pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
+        let Some(run_id) = &self.verdict_run_id else {
+            return Ok(None);
+        };
+        StoredVerdict::from_columns(
+            run_id,
+            self.verdict_detail.as_deref(),
+            self.verdict_product.clone(),
+            self.verdict_revision,
+            self.verdict_at,
+        )
+    }
+}
+
+/// Which units a list returns: `None` fields do not filter.
+#[derive(Clone, Debug, Default)]
+pub struct UnitFilter {
+    /// Units whose latest calibrated run has this verdict.
+    pub verdict: Option<VerdictStatus>,
+    /// Units whose latest run names this product.
+    pub product: Option<String>,
 }
 
 #[derive(Clone, Debug, FromRow)]
@@ -31,7 +67,34 @@ pub struct HistoryRow {
     pub parameters: String,
     pub model_adequate: Option<bool>,
     pub model_summary: Option<String>,
+    pub verdict_detail: Option<String>,
+    pub verdict_product: Option<String>,
+    pub verdict_revision: Option<i64>,
+    pub verdict_at: Option<i64>,
 }
+
+impl HistoryRow {
+    pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
+        StoredVerdict::from_columns(
+            &self.run_id,
+            self.verdict_detail.as_deref(),
+            self.verdict_product.clone(),
+            self.verdict_revision,
+            self.verdict_at,
+        )
+    }
+}
+
+/// A unit's summary columns (`u` the unit, `v` its latest result).
+const UNIT_COLUMNS: &str = "u.serial, u.created_at,
+    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
+    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
+    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time,
+    u.product, v.run_id AS verdict_run_id, v.verdict_detail, v.verdict_product,
+    v.verdict_revision, v.verdict_at
+    FROM units u LEFT JOIN results v ON v.run_id =
+        (SELECT s.run_id FROM results s WHERE s.unit_serial = u.serial
+         ORDER BY s.run_time DESC, s.run_id DESC LIMIT 1)";
 
 impl Store {
     pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
@@ -54,39 +117,52 @@ impl Store {
         .await?)
     }
 
+    /// A page of units in serial order, filtered by their latest run's
+    /// product and their latest calibrated run's verdict (indexed columns
+    /// of `units`, kept up to date by the store).
     pub async fn list_units(
         &self,
+        filter: &UnitFilter,
         limit: i64,
         offset: i64,
     ) -> Result<(i64, Vec<UnitSummary>), StoreError> {
-        let total = sqlx::query_scalar("SELECT COUNT(*) FROM units")
-            .fetch_one(&self.read)
-            .await?;
-        let rows = sqlx::query_as(
-            "SELECT u.serial, u.created_at,
-                    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
-                    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
-                    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time
-             FROM units u ORDER BY u.serial LIMIT ? OFFSET ?",
-        )
-        .bind(limit)
-        .bind(offset)
-        .fetch_all(&self.read)
-        .await?;
+        let mut conditions = Vec::new();
+        if filter.verdict.is_some() {
+            conditions.push("u.verdict = ?");
+        }
+        if filter.product.is_some() {
+            conditions.push("u.product = ?");
+        }
+        let filter_sql = if conditions.is_empty() {
+            String::new()
+        } else {
+            format!("WHERE {}", conditions.join(" AND "))
+        };
+        let count_sql = format!("SELECT COUNT(*) FROM units u {filter_sql}");
+        let mut count = sqlx::query_scalar(&count_sql);
+        let rows_sql =
+            format!("SELECT {UNIT_COLUMNS} {filter_sql} ORDER BY u.serial LIMIT ? OFFSET ?");
+        let mut rows = sqlx::query_as(&rows_sql);
+        if let Some(v) = filter.verdict {
+            count = count.bind(v);
+            rows = rows.bind(v);
+        }
+        if let Some(p) = &filter.product {
+            count = count.bind(p);
+            rows = rows.bind(p);
+        }
+        let total = count.fetch_one(&self.read).await?;
+        let rows = rows.bind(limit).bind(offset).fetch_all(&self.read).await?;
         Ok((total, rows))
     }
 
     pub async fn get_unit(&self, serial: &str) -> Result<Option<UnitSummary>, StoreError> {
-        Ok(sqlx::query_as(
-            "SELECT u.serial, u.created_at,
-                    (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
-                    (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
-                    (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time
-             FROM units u WHERE u.serial = ?",
+        Ok(
+            sqlx::query_as(&format!("SELECT {UNIT_COLUMNS} WHERE u.serial = ?"))
+                .bind(serial)
+                .fetch_optional(&self.read)
+                .await?,
         )
-        .bind(serial)
-        .fetch_optional(&self.read)
-        .await?)
     }
 
     /// Jobs of a unit's runs per state.
@@ -101,32 +177,42 @@ impl Store {
         Ok(by_state_name(rows))
     }
 
-    /// A unit's calibrated runs with `from <= run_time < to`, oldest first.
+    /// A unit's calibrated runs with `from <= run_time < to`, oldest first,
+    /// only those with the verdict `verdict` when given (index
+    /// `results_unit_verdict`).
     pub async fn history(
         &self,
         serial: &str,
-        from: i64,
-        to: i64,
+        (from, to): (i64, i64),
+        verdict: Option<VerdictStatus>,
         limit: i64,
         offset: i64,
     ) -> Result<(i64, Vec<HistoryRow>), StoreError> {
-        let total = sqlx::query_scalar(
-            "SELECT COUNT(*) FROM results WHERE unit_serial = ? AND run_time >= ? AND run_time < ?",
-        )
-        .bind(serial)
-        .bind(from)
-        .bind(to)
-        .fetch_one(&self.read)
-        .await?;
-        let rows = sqlx::query_as(
-            "SELECT run_id, job_id, run_time, completed_at, parameters, model_adequate, model_summary
+        // Two fixed statements rather than `?4 IS NULL OR …`, which the
+        // planner cannot serve from an index.
+        let filter = if verdict.is_some() {
+            "unit_serial = ?1 AND verdict = ?4 AND run_time >= ?2 AND run_time < ?3"
+        } else {
+            "unit_serial = ?1 AND run_time >= ?2 AND run_time < ?3 AND ?4 IS NULL"
+        };
+        let total = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM results WHERE {filter}"))
+            .bind(serial)
+            .bind(from)
+            .bind(to)
+            .bind(verdict)
+            .fetch_one(&self.read)
+            .await?;
+        let rows = sqlx::query_as(&format!(
+            "SELECT run_id, job_id, run_time, completed_at, parameters, model_adequate,
+                    model_summary, verdict_detail, verdict_product, verdict_revision, verdict_at
              FROM results
-             WHERE unit_serial = ? AND run_time >= ? AND run_time < ?
-             ORDER BY run_time, run_id LIMIT ? OFFSET ?",
-        )
+             WHERE {filter}
+             ORDER BY run_time, run_id LIMIT ?5 OFFSET ?6"
+        ))
         .bind(serial)
         .bind(from)
         .bind(to)
+        .bind(verdict)
         .bind(limit)
         .bind(offset)
         .fetch_all(&self.read)
@@ -196,6 +282,8 @@ impl Store {
             completed_at: new.uploaded_at,
             parameters,
             model_check: None,
+            poorly_observable: &[],
+            cross_check_flagged: &[],
             document: &document,
         };
         insert_result(&mut tx, &stored).await?;
@@ -214,6 +302,8 @@ pub(super) struct StoredResult<'a> {
     pub(super) completed_at: i64,
     pub(super) parameters: &'a BTreeMap<String, ParameterEstimate>,
     pub(super) model_check: Option<&'a ModelCheck>,
+    pub(super) poorly_observable: &'a [String],
+    pub(super) cross_check_flagged: &'a [String],
     /// The whole `CalibrationResult` JSON.
     pub(super) document: &'a str,
 }
@@ -224,8 +314,9 @@ pub(super) async fn insert_result(
 ) -> Result<(), StoreError> {
     sqlx::query(
         "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
-                              param_values, model_adequate, model_summary)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                              param_values, model_adequate, model_summary, poorly_observable,
+                              cross_check_flagged)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
     )
     .bind(r.run_id)
     .bind(r.job_id)
@@ -236,6 +327,8 @@ pub(super) async fn insert_result(
     .bind(spread::encode(r.parameters))
     .bind(r.model_check.map(|c| c.adequate))
     .bind(r.model_check.map(|c| c.summary.as_str()))
+    .bind(serde_json::to_string(r.poorly_observable)?)
+    .bind(serde_json::to_string(r.cross_check_flagged)?)
     .execute(&mut **tx)
     .await?;
     sqlx::query("INSERT INTO result_documents (run_id, result) VALUES (?, ?)")
@@ -243,5 +336,13 @@ pub(super) async fn insert_result(
         .bind(r.document)
         .execute(&mut **tx)
         .await?;
-    Ok(())
+    // Its verdict, and those of any results after it in the unit's history
+    // (their repeatability now includes it).
+    refresh_unit(
+        tx,
+        r.unit_serial,
+        Some((r.run_time, r.run_id)),
+        r.completed_at,
+    )
+    .await
 }

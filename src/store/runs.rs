@@ -4,10 +4,11 @@
 
 use sqlx::FromRow;
 
-use super::db::{Store, WriteTx};
+use super::db::{now_ms, Store, WriteTx};
 use super::error::StoreError;
 use super::jobs::count_queued;
 use super::kinds::JobState;
+use super::verdicts::{refresh_unit, refresh_unit_row, StoredVerdict};
 
 /// A run's file as stored: what an upload writes and a run row reads back.
 #[derive(Clone, Debug, FromRow)]
@@ -44,6 +45,28 @@ pub struct RunRow {
     pub model_adequate: Option<bool>,
     #[sqlx(default)]
     pub model_summary: Option<String>,
+    /// The result's verdict columns, when there is a result.
+    #[sqlx(default)]
+    pub verdict_detail: Option<String>,
+    #[sqlx(default)]
+    pub verdict_product: Option<String>,
+    #[sqlx(default)]
+    pub verdict_revision: Option<i64>,
+    #[sqlx(default)]
+    pub verdict_at: Option<i64>,
+}
+
+impl RunRow {
+    /// The result's verdict, once there is one.
+    pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
+        StoredVerdict::from_columns(
+            &self.id,
+            self.verdict_detail.as_deref(),
+            self.verdict_product.clone(),
+            self.verdict_revision,
+            self.verdict_at,
+        )
+    }
 }
 
 /// Whether a run needs an engineer's look.
@@ -83,6 +106,8 @@ pub struct NewRun {
     pub max_attempts: i64,
     /// The uploading token's id.
     pub uploaded_by: Option<String>,
+    /// The product the metadata names.
+    pub product: Option<String>,
 }
 
 /// What `insert_run_and_job` did.
@@ -177,7 +202,8 @@ impl Store {
     pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
             "SELECT r.*, j.id AS job_id, res.run_id IS NOT NULL AS calibrated,
-                    res.model_adequate, res.model_summary FROM runs r
+                    res.model_adequate, res.model_summary, res.verdict_detail,
+                    res.verdict_product, res.verdict_revision, res.verdict_at FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              LEFT JOIN results res ON res.run_id = r.id
              WHERE r.id = ?",
@@ -199,11 +225,12 @@ impl Store {
     /// its jobs is running.
     pub async fn delete_run(&self, id: &str) -> Result<RunDeletion, StoreError> {
         let mut tx = self.begin_write().await?;
-        let blob: Option<String> = sqlx::query_scalar("SELECT blob_path FROM runs WHERE id = ?")
-            .bind(id)
-            .fetch_optional(&mut *tx)
-            .await?;
-        let Some(blob_path) = blob else {
+        let run: Option<(String, String, i64)> =
+            sqlx::query_as("SELECT blob_path, unit_serial, run_time FROM runs WHERE id = ?")
+                .bind(id)
+                .fetch_optional(&mut *tx)
+                .await?;
+        let Some((blob_path, serial, run_time)) = run else {
             return Ok(RunDeletion::NoRun);
         };
         // Any of the run's jobs (calibration or diagnosis) still working
@@ -225,6 +252,8 @@ impl Store {
         ] {
             sqlx::query(sql).bind(id).execute(&mut *tx).await?;
         }
+        // Later results lose this one from their repeatability.
+        refresh_unit(&mut tx, &serial, Some((run_time, id)), now_ms()).await?;
         tx.commit().await?;
         Ok(RunDeletion::Deleted { blob_path })
     }
@@ -240,8 +269,8 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
         .await?;
     sqlx::query(
         "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
-                           metadata, recorded_at, run_time, uploaded_at, uploaded_by)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                           metadata, recorded_at, run_time, uploaded_at, uploaded_by, product)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
     )
     .bind(&new.run_id)
     .bind(&new.unit_serial)
@@ -256,7 +285,8 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     .bind(new.recorded_at.unwrap_or(new.uploaded_at))
     .bind(new.uploaded_at)
     .bind(&new.uploaded_by)
+    .bind(&new.product)
     .execute(&mut **tx)
     .await?;
-    Ok(())
+    refresh_unit_row(tx, &new.unit_serial).await
 }

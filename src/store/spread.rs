@@ -108,6 +108,16 @@ impl SpreadAccumulator {
         }
     }
 
+    /// Per parameter, the sample standard deviation (n − 1) of the values
+    /// pushed so far (`None` below two), and the most runs any parameter
+    /// has: what a verdict's repeatability bounds read after each run.
+    pub fn std_devs(&self) -> ([Option<f64>; PARAMETERS.len()], i64) {
+        let sd = self
+            .params
+            .map(|r| (r.n >= 2).then(|| (r.m2.max(0.0) / (r.n - 1) as f64).sqrt()));
+        (sd, self.params.iter().map(|r| r.n).max().unwrap_or(0))
+    }
+
     /// The spread of every parameter seen at least once, canonical order.
     pub fn finish(self) -> Vec<ParamSpread> {
         PARAMETERS
