@@ -12,6 +12,7 @@
 
 pub mod api;
 pub mod calib;
+pub mod compensation;
 pub mod config;
 pub mod design;
 pub mod diagnose;
