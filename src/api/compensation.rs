@@ -30,7 +30,6 @@ enum FileForm {
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
 struct CompensationQuery {
     #[serde(default)]
     format: FileForm,
