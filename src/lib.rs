@@ -14,6 +14,7 @@
 pub mod accept;
 pub mod api;
 pub mod calib;
+pub mod compensation;
 pub mod config;
 pub mod design;
 pub mod diagnose;

@@ -1,5 +1,6 @@
 //! The `sinscal` command line.
 
+mod cli_compensate;
 mod cli_noise;
 
 use std::path::PathBuf;
@@ -54,6 +55,11 @@ enum Command {
     /// (or a whole static run) and the noise terms read from it: ARW/VRW,
     /// bias instability, rate random walk.
     Noise(cli_noise::NoiseArgs),
+    /// Apply a calibration to a run: every record through the exact
+    /// inversion of the error model, streaming, into a run of the contract.
+    Compensate(cli_compensate::CompensateArgs),
+    /// Write a result's compensation file (JSON, or CSV by the name).
+    Export(cli_compensate::ExportArgs),
     /// Run the calibration server (HTTP API under /api/v1).
     Serve(sinscal::config::ServeArgs),
     /// Manage the server's bearer tokens.
@@ -565,6 +571,10 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Diagnose(a) => run_diagnose(a),
         Command::Design(a) => run_design(a),
         Command::Noise(a) => cli_noise::run_noise(&a, &read_metadata(&a.run, a.meta.as_deref())?),
+        Command::Compensate(a) => {
+            cli_compensate::run_compensate(&a, &read_metadata(&a.run, a.meta.as_deref())?)
+        }
+        Command::Export(a) => cli_compensate::run_export(&a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Token(TokenCommand::Create {
             role,

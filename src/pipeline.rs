@@ -1,6 +1,6 @@
 //! The library functions the CLI and the server call on a run stored on
-//! disk (calibrate, diagnose, noise analysis): its data file read in
-//! streaming passes, its metadata giving the site and rate.
+//! disk (calibrate, diagnose, noise analysis, compensation): its data file
+//! read in streaming passes, its metadata giving the site and rate.
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -8,8 +8,12 @@ use std::sync::atomic::AtomicBool;
 use crate::calib::{
     self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo,
 };
-use crate::io::data::{DataFormat, ReadLimits, RecordReader};
-use crate::io::meta::RunMetadata;
+use crate::compensation::{Compensated, CompensationFile};
+use crate::io::data::{
+    DataError, DataFormat, ReadLimits, RecordReader, RecordWriter, WriteOptions,
+};
+use crate::io::meta::{write_json, MetaError, RunMetadata};
+use crate::io::run::metadata_sidecar;
 use crate::noise::{NoiseError, NoiseOptions, NoiseReport};
 use crate::record::Record;
 
@@ -101,4 +105,141 @@ pub fn noise_file(
         sample_rate_hz: meta.sample_rate_hz,
     };
     crate::noise::analyse(&source, &run, opts, cancel)
+}
+
+/// Where and how [`compensate_file`] writes the compensated run.
+#[derive(Clone, Debug)]
+pub struct CompensateTarget {
+    /// The data file; its metadata goes to the sidecar beside it
+    /// (`io::run::metadata_sidecar`).
+    pub data: PathBuf,
+    pub format: DataFormat,
+    /// Gzip the CSV.
+    pub gzip: bool,
+    /// Apply a file whose unit serial differs from the run's.
+    pub any_unit: bool,
+}
+
+/// What [`compensate_file`] wrote.
+#[derive(Clone, Debug)]
+pub struct CompensatedRun {
+    pub data: PathBuf,
+    pub metadata: PathBuf,
+    pub records: u64,
+}
+
+/// Errors compensating a run file.
+#[derive(Debug, thiserror::Error)]
+pub enum CompensateError {
+    #[error(transparent)]
+    Read(#[from] DataError),
+    #[error("{path}: {source}")]
+    Write {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error(transparent)]
+    Meta(#[from] MetaError),
+    #[error("{0}")]
+    Refused(String),
+}
+
+/// Compensates the run in `data` (described by `meta`) with `file`,
+/// streaming every record through the exact inversion of SPEC §2 into a
+/// run of the same contract at `target`, whose metadata is the run's own
+/// with `format` set and the applied file under `compensation` (a field
+/// the contract keeps, CONTRACT §5). A rate file comes out as increments.
+/// On an error the partial data file is removed.
+pub fn compensate_file(
+    data: &Path,
+    meta: &RunMetadata,
+    file: &CompensationFile,
+    target: &CompensateTarget,
+) -> Result<CompensatedRun, CompensateError> {
+    check_compensate_paths(data, target)?;
+    if let Some(serial) = &file.provenance.unit_serial {
+        if *serial != meta.unit_serial && !target.any_unit {
+            return Err(CompensateError::Refused(format!(
+                "the compensation is unit {serial}'s, the run is unit {}'s",
+                meta.unit_serial
+            )));
+        }
+    }
+    let metadata = metadata_sidecar(&target.data);
+    let records = write_compensated(data, meta, file, target).inspect_err(|_| {
+        let _ = std::fs::remove_file(&target.data);
+    })?;
+    let mut out_meta = meta.clone();
+    out_meta.format = target.format;
+    let applied = serde_json::to_value(file).map_err(|source| MetaError::Json {
+        what: "compensation".into(),
+        source,
+    })?;
+    out_meta.extra.insert("compensation".into(), applied);
+    write_json(&metadata, &out_meta)?;
+    Ok(CompensatedRun {
+        data: target.data.clone(),
+        metadata,
+        records,
+    })
+}
+
+/// The output must not replace the input's data, nor its sidecar.
+fn check_compensate_paths(data: &Path, target: &CompensateTarget) -> Result<(), CompensateError> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    };
+    let sidecar = metadata_sidecar(&target.data);
+    if same(data, &target.data) || same(data, &sidecar) {
+        return Err(CompensateError::Refused(format!(
+            "{} would overwrite the run being compensated",
+            target.data.display()
+        )));
+    }
+    Ok(())
+}
+
+fn write_compensated(
+    data: &Path,
+    meta: &RunMetadata,
+    file: &CompensationFile,
+    target: &CompensateTarget,
+) -> Result<u64, CompensateError> {
+    let reader = RecordReader::open(data, meta.format, meta.sample_rate_hz)?;
+    let options = if target.format == DataFormat::Csv {
+        let p = &file.provenance;
+        WriteOptions {
+            gzip: target.gzip,
+            comments: vec![format!(
+                "compensated by sinscal {} with {} ({}{}); unit {}",
+                env!("CARGO_PKG_VERSION"),
+                p.source.as_deref().unwrap_or("a compensation file"),
+                p.model,
+                p.run_id
+                    .as_deref()
+                    .map_or(String::new(), |id| format!(", run {id}")),
+                meta.unit_serial
+            )],
+        }
+    } else {
+        WriteOptions {
+            gzip: target.gzip,
+            comments: Vec::new(),
+        }
+    };
+    let write_err = |source| CompensateError::Write {
+        path: target.data.clone(),
+        source,
+    };
+    let mut writer =
+        RecordWriter::create(&target.data, target.format, &options).map_err(write_err)?;
+    let mut records = 0;
+    for rec in Compensated::new(reader, &file.parameters(), meta.sample_rate_hz) {
+        writer.write_record(&rec?).map_err(write_err)?;
+        records += 1;
+    }
+    writer.finish().map_err(write_err)?;
+    Ok(records)
 }

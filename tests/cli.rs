@@ -264,3 +264,126 @@ fn simulate_takes_the_attitude_error_anywhere_on_the_line() {
     assert!(!bad.status.success());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("expected x,y,z, got 2 numbers"));
 }
+
+/// `export` writes the compensation file (JSON and CSV); `compensate`
+/// applies a result or that file to the run, streaming, into a run of the
+/// contract with as many records, and refuses to overwrite its input or to
+/// apply another unit's file.
+#[test]
+fn compensate_and_export_write_files_the_readers_take() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = dir.path().join("run");
+    let status = sinscal()
+        .args(["simulate", "--scheme", "ten-position", "--dwell", "60"])
+        .args(["--params", "random", "--seed", "6", "--rate", "20"])
+        .args(["--format", "f64le", "--serial", "RLG-7", "--out"])
+        .arg(&run)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let data = run.join("run.bin");
+    let result = dir.path().join("result.json");
+    stdout_of(
+        sinscal()
+            .arg("calibrate")
+            .arg(&data)
+            .arg("--out")
+            .arg(&result),
+    );
+    let comp_json = dir.path().join("comp.json");
+    let comp_csv = dir.path().join("comp.csv");
+    for out in [&comp_json, &comp_csv] {
+        stdout_of(
+            sinscal()
+                .arg("export")
+                .arg(&result)
+                .args(["--serial", "RLG-7", "--out"])
+                .arg(out),
+        );
+    }
+    let file: serde_json::Value = read_json(&comp_json).unwrap();
+    assert_eq!(file["format"], "sinscal-compensation");
+    assert_eq!(file["provenance"]["unit_serial"], "RLG-7");
+    assert_eq!(file["gyro"]["scale_misalignment"][1][0], 0.0);
+    let csv = std::fs::read_to_string(&comp_csv).unwrap();
+    assert_eq!(csv.lines().filter(|l| !l.starts_with('#')).count(), 25);
+
+    let records = RecordReader::open(&data, DataFormat::F64le, 20.0)
+        .unwrap()
+        .count();
+    // From the result, to CSV; from the file, to f64le.
+    for (source, out, format) in [
+        (
+            &result,
+            dir.path().join("a").join("run.csv"),
+            DataFormat::Csv,
+        ),
+        (
+            &comp_json,
+            dir.path().join("b").join("run.bin"),
+            DataFormat::F64le,
+        ),
+    ] {
+        std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+        stdout_of(
+            sinscal()
+                .arg("compensate")
+                .arg(source)
+                .arg(&data)
+                .args(["--format", format.as_str(), "--out"])
+                .arg(&out),
+        );
+        let meta: RunMetadata = read_json(&out.with_file_name("run.json")).unwrap();
+        assert_eq!(meta.format, format);
+        assert_eq!(meta.unit_serial, "RLG-7");
+        assert!(meta.extra["compensation"]["gyro"]["bias_rad_per_s"].is_array());
+        let reader = RecordReader::open(&out, format, 20.0).unwrap();
+        let got: Vec<_> = reader.collect::<Result<_, _>>().unwrap();
+        assert_eq!(got.len(), records);
+    }
+
+    // Beside the run, run.csv's sidecar would be the run's own run.json.
+    let refused = sinscal()
+        .arg("compensate")
+        .arg(&result)
+        .arg(&data)
+        .arg("--out")
+        .arg(run.join("run.csv"))
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("would overwrite"));
+    let meta: RunMetadata = read_json(&run.join("run.json")).unwrap();
+    assert!(!meta.extra.contains_key("compensation"));
+
+    // Another unit's file is refused unless asked for.
+    let other = dir.path().join("other.json");
+    stdout_of(
+        sinscal()
+            .arg("export")
+            .arg(&result)
+            .args(["--serial", "RLG-8", "--out"])
+            .arg(&other),
+    );
+    let out = dir.path().join("c").join("run.bin");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+    let refused = sinscal()
+        .arg("compensate")
+        .arg(&other)
+        .arg(&data)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("unit RLG-8's"));
+    assert!(!out.exists());
+    stdout_of(
+        sinscal()
+            .arg("compensate")
+            .arg(&other)
+            .arg(&data)
+            .args(["--any-unit", "--out"])
+            .arg(&out),
+    );
+}

@@ -425,7 +425,15 @@ fn the_stated_absences_hold() {
     }
     let top = top_level_edges(&tree);
     let core = [
-        "nav", "model", "sim", "calib", "diagnose", "design", "io", "noise",
+        "nav",
+        "model",
+        "sim",
+        "calib",
+        "diagnose",
+        "design",
+        "io",
+        "noise",
+        "compensation",
     ];
     let server_side = [
         "store", "jobs", "api", "server", "config", "metrics", "runfiles",

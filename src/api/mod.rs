@@ -3,6 +3,7 @@
 //! problem+json in [`error`].
 
 pub mod auth;
+mod compensation;
 pub mod error;
 mod jobs;
 mod noise;
@@ -76,6 +77,7 @@ pub fn router(state: AppState) -> Router {
         .merge(operations.clone())
         .route("/openapi.yaml", get(openapi))
         .merge(runs::router())
+        .merge(compensation::router())
         .merge(noise::router())
         .merge(jobs::router())
         .merge(units::router())

@@ -1,0 +1,86 @@
+//! A run's compensation file over HTTP: `GET /runs/{id}/compensation`
+//! answers what `sinscal export` writes from the run's result, as JSON or,
+//! with `?format=csv`, as CSV (CONTRACT §5a).
+
+use axum::extract::rejection::{PathRejection, QueryRejection};
+use axum::extract::{Path, Query, State};
+use axum::http::header;
+use axum::response::{IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use serde::Deserialize;
+
+use super::auth::{roles, Auth};
+use super::error::ApiError;
+use super::{parse_id, AppState};
+use crate::calib::CalibrationResult;
+use crate::compensation::{CompensationFile, Provenance};
+
+pub fn router() -> Router<AppState> {
+    Router::new().route("/runs/{id}/compensation", get(get_compensation))
+}
+
+/// The file's two forms.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(rename_all = "lowercase")]
+enum FileForm {
+    #[default]
+    Json,
+    Csv,
+}
+
+#[derive(Debug, Deserialize)]
+struct CompensationQuery {
+    #[serde(default)]
+    format: FileForm,
+}
+
+async fn get_compensation(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+    query: Result<Query<CompensationQuery>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let id = parse_id(path?.0, "run")?;
+    let Query(q) = query?;
+    let run = st
+        .store
+        .get_run(&id)
+        .await?
+        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
+    let Some(json) = st.store.get_result(&id).await? else {
+        // No result, no compensation: the file does not exist (yet).
+        let state = st
+            .store
+            .get_job(&run.job_id)
+            .await?
+            .map_or("unknown", |j| j.state.as_str());
+        return Err(ApiError::NotFound(format!(
+            "run {id} has no compensation: it has no result, its job {} is {state}",
+            run.job_id
+        )));
+    };
+    let provenance = Provenance {
+        unit_serial: Some(run.unit_serial),
+        source: Some(format!("/api/v1/runs/{id}/result")),
+        run_id: Some(id.clone()),
+        ..Provenance::default()
+    };
+    // A stored result is up to half a megabyte of JSON: parsed off the
+    // async workers.
+    let file = tokio::task::spawn_blocking(move || {
+        let result: CalibrationResult = serde_json::from_str(&json)
+            .map_err(|e| ApiError::Internal(format!("stored result of run {id}: {e}")))?;
+        CompensationFile::from_result(&result, provenance)
+            .map_err(|e| ApiError::Internal(format!("stored result of run {id}: {e}")))
+    })
+    .await
+    .map_err(|e| ApiError::Internal(format!("compensation task: {e}")))??;
+    Ok(match q.format {
+        FileForm::Json => {
+            ([(header::CONTENT_TYPE, "application/json")], file.to_json()).into_response()
+        }
+        FileForm::Csv => ([(header::CONTENT_TYPE, "text/csv")], file.to_csv()).into_response(),
+    })
+}

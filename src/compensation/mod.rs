@@ -1,0 +1,23 @@
+//! What a calibration delivers to the unit (CONTRACT §5a): the compensation
+//! file a navigation computer loads — the 24 parameters as K_g, K_a, biases
+//! and quadratic terms in SI, with σ, provenance and the convention stated
+//! in the file — its JSON and CSV forms, and the streaming application of
+//! the model's exact inversion to a run's records.
+//!
+//! - `file`: [`CompensationFile`] (from a result or bare parameters, JSON
+//!   written and read back, validated);
+//! - `table`: its CSV form;
+//! - `convention`: the words the file states about its numbers;
+//! - `apply`: [`Compensated`], records in, compensated records out.
+
+pub mod apply;
+pub mod convention;
+pub mod file;
+pub mod table;
+
+pub use apply::Compensated;
+pub use convention::Convention;
+pub use file::{CompensationError, CompensationFile, Provenance, FORMAT_TAG, FORMAT_VERSION};
+
+#[cfg(test)]
+mod tests;
