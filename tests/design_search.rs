@@ -4,8 +4,11 @@
 
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::{EstimateOptions, NoiseDensity};
+use std::sync::atomic::AtomicBool;
+
 use sinscal::design::detect::DETECT_MARGIN;
 use sinscal::design::{design, Axes, DesignRequest, DetectGoal, Target};
+use sinscal::diagnose::thresholds_before_data;
 use sinscal::nav::Site;
 
 fn tactical() -> DesignRequest {
@@ -94,30 +97,47 @@ fn impossible_requests_are_refused_with_a_reason() {
     assert!(e.contains("max-duration"), "{e}");
 }
 
-/// `--detect`: a lever arm the 24-parameter goal alone would leave
-/// unnamed sets the scheme's length, and the discrepancy workflow, run on
-/// a noise-free simulation of the answer, names it with the margin asked.
+/// `--detect`: a delay the design for the 24 parameters alone would leave
+/// unnamed (by the discrepancy workflow's own check of that scheme) is
+/// named, with the margin asked, on the scheme designed to detect it.
 #[test]
-fn an_effect_to_detect_shapes_the_scheme_and_the_workflow_confirms_it() {
-    let goal: DetectGoal = "accel_lever_arm=6mm".parse().unwrap();
-    let req = DesignRequest {
+fn an_effect_to_detect_changes_the_scheme_until_the_workflow_names_it() {
+    let goal: DetectGoal = "accel_delay=0.025ms".parse().unwrap();
+    let delay_threshold_ms = |scheme: &sinscal::sim::Scheme| {
+        thresholds_before_data(
+            &PlanInput {
+                scheme: scheme.clone(),
+                site: Site::REFERENCE,
+                sample_rate_hz: 100.0,
+                noise: tactical().noise,
+                initial_attitude_error_deg: [0.0; 3],
+            },
+            &AtomicBool::new(false),
+        )
+        .unwrap()
+        .into_iter()
+        .find(|t| t.effect == "accel_delay")
+        .expect("the workflow reports the delay")
+        .size
+    };
+    let plain = design(&tactical()).unwrap();
+    let before = delay_threshold_ms(&plain.scheme);
+    eprintln!("without the goal: a delay named from {before:.4} ms");
+    assert!(
+        before * DETECT_MARGIN > goal.size,
+        "the goal should ask for more than the plain design gives"
+    );
+    let d = design(&DesignRequest {
         detect: vec![goal.clone()],
         ..tactical()
-    };
-    let d = design(&req).unwrap();
+    })
+    .unwrap();
     eprint!("{}", d.summary());
-    assert_eq!(d.detect.len(), 1);
     let o = &d.detect[0];
     assert!(o.met, "{}", o.describe());
-    let checked = o
-        .checked_threshold
-        .expect("the workflow reports the lever arm");
-    assert!(checked * DETECT_MARGIN <= goal.size, "{}", o.describe());
-    assert!(
-        d.binding.contains(&goal.to_string()),
-        "the lever arm should set the length: binding {:?}",
-        d.binding
-    );
+    let after = o.checked_threshold.expect("the workflow reports the delay");
+    assert!(after * DETECT_MARGIN <= goal.size, "{}", o.describe());
+    assert!((after / delay_threshold_ms(&d.scheme) - 1.0).abs() < 1e-9);
     for (name, p) in &d.parameters {
         assert!(p.ratio <= 1.0, "{name}: ratio {}", p.ratio);
     }

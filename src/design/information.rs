@@ -104,18 +104,21 @@ const TURN_WINDOW_S: f64 = 1.0;
 /// Rest at each end of a dwell stepped in the estimator's own windows.
 const FINE_REST_S: f64 = 10.0;
 
-/// Adds the parameter columns of a motion sampled at `kin` over a step of
-/// `h` seconds whose midpoint is `tau` into the window, and the effect
-/// columns of `effects` read from `around` (the kinematics at any time),
-/// the step's midpoint being `t_mid` from the scheme's start.
+/// The step and its neighbours either side, sampled at their midpoints.
+type Around = [Kinematics; 2 * NEIGHBOURS + 1];
+
+/// Adds the parameter columns of a step of `h` seconds whose midpoint is
+/// `tau` into the window and `t_mid` from the scheme's start, its motion
+/// sampled at the midpoints of it and its neighbours (`around`, the step in
+/// the middle); the effect columns of `effects` read from all of them.
 fn add_step(
     kf: &mut SystematicFilter,
-    kin: &Kinematics,
+    around: &Around,
     (h, tau): (f64, f64),
     effects: &[EffectParameter],
-    around: &dyn Fn(f64) -> Kinematics,
     t_mid: f64,
 ) {
+    let kin = &around[NEIGHBOURS];
     let dtheta = kin.omega_ib_b * h;
     let dv = kin.f_b * h;
     base_columns(&kin.c_b_n, &dtheta, &dv, h, |i, rows, col| {
@@ -124,25 +127,19 @@ fn add_step(
     if effects.is_empty() {
         return;
     }
-    let motion = step_motion(around, t_mid, h);
-    for (j, &p) in effects.iter().enumerate() {
-        let (rows, col_b) = effect_column(p, &motion);
-        kf.add_column(N_PARAMS + j, rows, &(kin.c_b_n * col_b), tau);
-    }
-}
-
-/// The step of `h` seconds about `t_mid` and its neighbours as records of
-/// an error-free triad (their increments from the mid-step rates).
-fn step_motion(around: &dyn Fn(f64) -> Kinematics, t_mid: f64, h: f64) -> RecordMotion {
-    let kin: [Kinematics; 2 * NEIGHBOURS + 1] =
-        std::array::from_fn(|i| around(t_mid + (i as f64 - NEIGHBOURS as f64) * h));
-    RecordMotion {
-        dtheta: std::array::from_fn(|i| kin[i].omega_ib_b * h),
-        dv: std::array::from_fn(|i| kin[i].f_b * h),
+    // The step and its neighbours as records of an error-free triad, their
+    // increments from the mid-step rates.
+    let motion = RecordMotion {
+        dtheta: std::array::from_fn(|i| around[i].omega_ib_b * h),
+        dv: std::array::from_fn(|i| around[i].f_b * h),
         dt: h,
         t_mid,
         accel_jacobian: Matrix3::identity(),
         accel_jacobian_inv: Matrix3::identity(),
+    };
+    for (j, &p) in effects.iter().enumerate() {
+        let (rows, col_b) = effect_column(p, &motion);
+        kf.add_column(N_PARAMS + j, rows, &(kin.c_b_n * col_b), tau);
     }
 }
 
@@ -157,9 +154,9 @@ fn add_rest(
     effects: &[EffectParameter],
 ) {
     let offset = t / (2.0 * 3f64.sqrt());
-    let still = |_: f64| *kin;
+    let still = [*kin; 2 * NEIGHBOURS + 1];
     for tau in [0.5 * t - offset, 0.5 * t + offset] {
-        add_step(kf, kin, (0.5 * t, tau), effects, &still, t0 + tau);
+        add_step(kf, &still, (0.5 * t, tau), effects, t0 + tau);
     }
 }
 
@@ -304,13 +301,37 @@ impl Walk<'_> {
             .max(1.0);
         let per_window = (steps_total / n_windows as f64).ceil().max(1.0) as usize;
         let h = window / per_window as f64;
-        let around = |t: f64| traj.kinematics(t);
+        let n_steps = n_windows * per_window;
+        // Every step's midpoint kinematics, and with effects carried its
+        // neighbours' beyond either end of the turn: each is computed once.
+        let margin = if self.effects.is_empty() {
+            0
+        } else {
+            NEIGHBOURS
+        };
+        let kins: Vec<Kinematics> = (0..n_steps + 2 * margin)
+            .map(|i| {
+                let step = i as f64 - margin as f64;
+                let t = seg.t0 + (step + 0.5) * h;
+                if (0.0..n_steps as f64).contains(&step) {
+                    traj.kinematics_in(k, t)
+                } else {
+                    traj.kinematics(t)
+                }
+            })
+            .collect();
         for w in 0..n_windows {
             let t_ws = seg.t0 + w as f64 * window;
             for j in 0..per_window {
                 let tau = (j as f64 + 0.5) * h;
-                let kin = traj.kinematics_in(k, t_ws + tau);
-                add_step(self.kf, &kin, (h, tau), self.effects, &around, t_ws + tau);
+                let step = w * per_window + j;
+                // Without effects only the middle one is read.
+                let around: Around = std::array::from_fn(|i| {
+                    kins[(step + margin + i)
+                        .saturating_sub(NEIGHBOURS)
+                        .min(kins.len() - 1)]
+                });
+                add_step(self.kf, &around, (h, tau), self.effects, t_ws + tau);
             }
             self.kf.propagate(window);
         }
