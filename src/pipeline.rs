@@ -25,6 +25,24 @@ pub struct FileSource {
     pub limits: ReadLimits,
 }
 
+impl FileSource {
+    /// The run in `data` as `meta` describes it: its records, read with
+    /// the default limits, and the site and rate the estimators need.
+    pub fn of_run(data: &Path, meta: &RunMetadata) -> (FileSource, RunInfo) {
+        let source = FileSource {
+            path: data.to_path_buf(),
+            format: meta.format,
+            sample_rate_hz: meta.sample_rate_hz,
+            limits: ReadLimits::default(),
+        };
+        let run = RunInfo {
+            site: meta.site(),
+            sample_rate_hz: meta.sample_rate_hz,
+        };
+        (source, run)
+    }
+}
+
 impl RecordSource for FileSource {
     fn records(
         &self,
@@ -50,16 +68,7 @@ pub fn calibrate_file(
     progress: &mut dyn FnMut(Progress),
     cancel: &AtomicBool,
 ) -> Result<CalibrationResult, CalibError> {
-    let source = FileSource {
-        path: data.to_path_buf(),
-        format: meta.format,
-        sample_rate_hz: meta.sample_rate_hz,
-        limits: ReadLimits::default(),
-    };
-    let run = RunInfo {
-        site: meta.site(),
-        sample_rate_hz: meta.sample_rate_hz,
-    };
+    let (source, run) = FileSource::of_run(data, meta);
     calib::estimate(&source, &run, opts, progress, cancel)
 }
 
@@ -72,16 +81,7 @@ pub fn diagnose_file(
     progress: &mut dyn FnMut(Progress),
     cancel: &AtomicBool,
 ) -> Result<crate::diagnose::DiagnoseReport, crate::diagnose::DiagnoseError> {
-    let source = FileSource {
-        path: data.to_path_buf(),
-        format: meta.format,
-        sample_rate_hz: meta.sample_rate_hz,
-        limits: ReadLimits::default(),
-    };
-    let run = RunInfo {
-        site: meta.site(),
-        sample_rate_hz: meta.sample_rate_hz,
-    };
+    let (source, run) = FileSource::of_run(data, meta);
     crate::diagnose::diagnose(&source, &run, opts, progress, cancel)
 }
 
@@ -94,16 +94,7 @@ pub fn noise_file(
     opts: &NoiseOptions,
     cancel: &AtomicBool,
 ) -> Result<NoiseReport, NoiseError> {
-    let source = FileSource {
-        path: data.to_path_buf(),
-        format: meta.format,
-        sample_rate_hz: meta.sample_rate_hz,
-        limits: ReadLimits::default(),
-    };
-    let run = RunInfo {
-        site: meta.site(),
-        sample_rate_hz: meta.sample_rate_hz,
-    };
+    let (source, run) = FileSource::of_run(data, meta);
     crate::noise::analyse(&source, &run, opts, cancel)
 }
 

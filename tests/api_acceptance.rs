@@ -12,27 +12,8 @@ use common::*;
 use reqwest::StatusCode;
 use serde_json::{json, Value};
 use sinscal::io::data::DataFormat;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::sim::{Noise, Scheme, SimConfig};
-
-/// The 9+9 scheme with 120 s dwells at 20 Hz (seconds to calibrate), as
-/// in api_model_check; a 2 ms accelerometer delay makes the model check
-/// fail.
-fn run_config(seed: u64, effects: Effects) -> SimConfig {
-    let mut cfg = sim_config(seed, ErrorParameters::paper(), "ten-position-9+9", 120.0);
-    cfg.sample_rate_hz = 20.0;
-    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
-    cfg.noise = Noise::default_navigation_grade();
-    cfg.effects = effects;
-    cfg
-}
-
-fn delayed() -> Effects {
-    Effects {
-        accel_delay: Some(2.0),
-        ..Effects::none()
-    }
-}
+use sinscal::model::Effects;
+use sinscal::sim::SimConfig;
 
 /// Uploads a simulated run naming `product`, waits for its calibration and
 /// returns the run's view.
@@ -115,13 +96,13 @@ async fn verdicts_follow_limits_checks_and_filters() {
 
     // Within the limits. One run cannot judge the repeatability bound, a
     // second can.
-    let first = calibrated_run(&app, "ACC-1", "SINS-A", &run_config(21, Effects::none())).await;
+    let first = calibrated_run(&app, "ACC-1", "SINS-A", &model_check_run(21, Effects::none())).await;
     assert_eq!(first["verdict"]["status"], "needs_review", "{first}");
     assert_eq!(
         first["verdict"]["reasons"],
         json!([{"reason": "too_few_runs", "runs": 1, "needed": 2}])
     );
-    let good = calibrated_run(&app, "ACC-1", "SINS-A", &run_config(22, Effects::none())).await;
+    let good = calibrated_run(&app, "ACC-1", "SINS-A", &model_check_run(22, Effects::none())).await;
     let verdict = &good["verdict"];
     assert_eq!(verdict["status"], "accepted", "{good}");
     assert_eq!(verdict["failed"], json!([]));
@@ -135,7 +116,7 @@ async fn verdicts_follow_limits_checks_and_filters() {
     );
 
     // A tight limit: rejected, naming the parameter and the bound.
-    let tight = calibrated_run(&app, "REJ-1", "SINS-T", &run_config(23, Effects::none())).await;
+    let tight = calibrated_run(&app, "REJ-1", "SINS-T", &model_check_run(23, Effects::none())).await;
     let verdict = &tight["verdict"];
     assert_eq!(verdict["status"], "rejected", "{tight}");
     let failed = &verdict["failed"][0];
@@ -146,7 +127,7 @@ async fn verdicts_follow_limits_checks_and_filters() {
     assert!(failed["actual"].as_f64().unwrap() > 1e-9);
 
     // The model check fails: needs review, whatever the limits.
-    let odd = calibrated_run(&app, "REV-1", "SINS-A", &run_config(24, delayed())).await;
+    let odd = calibrated_run(&app, "REV-1", "SINS-A", &model_check_run(24, delayed_accelerometers())).await;
     assert_eq!(odd["review"], "needs_review");
     assert_eq!(odd["verdict"]["status"], "needs_review", "{odd}");
     let reasons: Vec<&str> = odd["verdict"]["reasons"]

@@ -11,26 +11,8 @@ use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
 use sinscal::io::data::DataFormat;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::sim::{Noise, Scheme, SimConfig};
-
-/// The 9+9 scheme with 120 s dwells at 20 Hz: seconds to calibrate, and a
-/// 2 ms accelerometer delay stands out at every turn.
-fn run_config(seed: u64, effects: Effects) -> SimConfig {
-    let mut cfg = sim_config(seed, ErrorParameters::paper(), "ten-position-9+9", 120.0);
-    cfg.sample_rate_hz = 20.0;
-    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
-    cfg.noise = Noise::default_navigation_grade();
-    cfg.effects = effects;
-    cfg
-}
-
-fn delayed() -> Effects {
-    Effects {
-        accel_delay: Some(2.0),
-        ..Effects::none()
-    }
-}
+use sinscal::model::Effects;
+use sinscal::sim::SimConfig;
 
 async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> String {
     let dir = tempfile::tempdir().unwrap();
@@ -48,7 +30,7 @@ async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> S
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_inadequate_run_is_marked_and_diagnosed_by_itself() {
     let app = spawn_app(1).await;
-    let run_id = upload_and_calibrate(&app, "RLG-MC1", &run_config(11, delayed())).await;
+    let run_id = upload_and_calibrate(&app, "RLG-MC1", &model_check_run(11, delayed_accelerometers())).await;
 
     let result = app.get_result(&run_id).await;
     let check = &result["model_check"];
@@ -98,7 +80,7 @@ async fn an_inadequate_run_is_marked_and_diagnosed_by_itself() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
     let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
-    let clean = upload_and_calibrate(&app, "RLG-MC2", &run_config(12, Effects::none())).await;
+    let clean = upload_and_calibrate(&app, "RLG-MC2", &model_check_run(12, Effects::none())).await;
     let run = app.get_run(&clean).await;
     assert_eq!(run["review"], "clear", "{run}");
     assert_eq!(run["model_check"]["adequate"], true);
@@ -108,7 +90,7 @@ async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
     );
 
     // Inadequate, but with automatic diagnosis off: marked, not queued.
-    let bad = upload_and_calibrate(&app, "RLG-MC2", &run_config(13, delayed())).await;
+    let bad = upload_and_calibrate(&app, "RLG-MC2", &model_check_run(13, delayed_accelerometers())).await;
     assert_eq!(app.get_run(&bad).await["review"], "needs_review");
     let r = app.post_diagnose(&app.admin, &bad).await;
     let (status, job): (StatusCode, Value) = (r.status(), r.json().await.unwrap());

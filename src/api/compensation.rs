@@ -44,11 +44,7 @@ async fn get_compensation(
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
     let Query(q) = query?;
-    let run = st
-        .store
-        .get_run(&id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
+    let run = super::runs::stored_run(&st, &id).await?;
     let Some(json) = st.store.get_result(&id).await? else {
         // No result, no compensation: the file does not exist (yet).
         let state = st

@@ -48,11 +48,7 @@ async fn get_noise(
 ) -> Result<Json<NoiseReport>, ApiError> {
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
-    let run = st
-        .store
-        .get_run(&id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
+    let run = super::runs::stored_run(&st, &id).await?;
     let meta = RunMetadata::from_json(run.file.metadata.as_bytes())
         .map_err(|e| ApiError::Internal(format!("stored metadata of run {id}: {e}")))?;
     let data = RunFiles::new(st.config.data_dir.clone()).path(&run.file.blob_path);

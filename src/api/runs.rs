@@ -16,6 +16,7 @@ use super::error::ApiError;
 use super::jobs::JobView;
 use super::upload::queue_full;
 use super::{parse_id, rfc3339, AppState};
+
 use crate::accept::Verdict;
 use crate::diagnose::DiagnoseReport;
 use crate::runfiles::RunFiles;
@@ -124,6 +125,14 @@ pub fn router() -> Router<AppState> {
         .route("/runs/{id}/diagnosis/gap.svg", get(get_diagnosis_gap_svg))
 }
 
+/// The run `id`, or a 404 naming it (for the readers of every run).
+pub(super) async fn stored_run(st: &AppState, id: &str) -> Result<RunRow, ApiError> {
+    st.store
+        .get_run(id)
+        .await?
+        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))
+}
+
 async fn get_run(
     State(st): State<AppState>,
     auth: Auth,
@@ -147,11 +156,7 @@ async fn get_result(
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
-    let run = st
-        .store
-        .get_run(&id)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
+    let run = stored_run(&st, &id).await?;
     if let Some(json) = st.store.get_result(&id).await? {
         // Stored as serialized by the estimator's own types: served as is,
         // with the verdict (which changes with the limits) put in front.

@@ -110,6 +110,28 @@ pub fn sim_config(seed: u64, params: ErrorParameters, scheme: &str, dwell_s: f64
     }
 }
 
+/// The 9+9 scheme with 120 s dwells at 20 Hz, paper truth, navigation-grade
+/// noise and `effects`: seconds to calibrate, and a 2 ms accelerometer
+/// delay (`delayed_accelerometers`) stands out at every turn, so the model
+/// check fails.
+pub fn model_check_run(seed: u64, effects: Effects) -> SimConfig {
+    let mut cfg = sim_config(seed, ErrorParameters::paper(), "ten-position-9+9", 120.0);
+    cfg.sample_rate_hz = 20.0;
+    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
+    cfg.noise = Noise::default_navigation_grade();
+    cfg.effects = effects;
+    cfg
+}
+
+/// A 2 ms accelerometer delay.
+pub fn delayed_accelerometers() -> Effects {
+    Effects {
+        accel_delay: Some(2.0),
+        ..Effects::none()
+    }
+}
+
+
 /// Simulates a run into `dir`; `recorded_at` goes into its metadata.
 pub fn simulate_run(
     dir: &Path,
