@@ -96,13 +96,25 @@ async fn verdicts_follow_limits_checks_and_filters() {
 
     // Within the limits. One run cannot judge the repeatability bound, a
     // second can.
-    let first = calibrated_run(&app, "ACC-1", "SINS-A", &model_check_run(21, Effects::none())).await;
+    let first = calibrated_run(
+        &app,
+        "ACC-1",
+        "SINS-A",
+        &model_check_run(21, Effects::none()),
+    )
+    .await;
     assert_eq!(first["verdict"]["status"], "needs_review", "{first}");
     assert_eq!(
         first["verdict"]["reasons"],
         json!([{"reason": "too_few_runs", "runs": 1, "needed": 2}])
     );
-    let good = calibrated_run(&app, "ACC-1", "SINS-A", &model_check_run(22, Effects::none())).await;
+    let good = calibrated_run(
+        &app,
+        "ACC-1",
+        "SINS-A",
+        &model_check_run(22, Effects::none()),
+    )
+    .await;
     let verdict = &good["verdict"];
     assert_eq!(verdict["status"], "accepted", "{good}");
     assert_eq!(verdict["failed"], json!([]));
@@ -116,7 +128,13 @@ async fn verdicts_follow_limits_checks_and_filters() {
     );
 
     // A tight limit: rejected, naming the parameter and the bound.
-    let tight = calibrated_run(&app, "REJ-1", "SINS-T", &model_check_run(23, Effects::none())).await;
+    let tight = calibrated_run(
+        &app,
+        "REJ-1",
+        "SINS-T",
+        &model_check_run(23, Effects::none()),
+    )
+    .await;
     let verdict = &tight["verdict"];
     assert_eq!(verdict["status"], "rejected", "{tight}");
     let failed = &verdict["failed"][0];
@@ -127,7 +145,13 @@ async fn verdicts_follow_limits_checks_and_filters() {
     assert!(failed["actual"].as_f64().unwrap() > 1e-9);
 
     // The model check fails: needs review, whatever the limits.
-    let odd = calibrated_run(&app, "REV-1", "SINS-A", &model_check_run(24, delayed_accelerometers())).await;
+    let odd = calibrated_run(
+        &app,
+        "REV-1",
+        "SINS-A",
+        &model_check_run(24, delayed_accelerometers()),
+    )
+    .await;
     assert_eq!(odd["review"], "needs_review");
     assert_eq!(odd["verdict"]["status"], "needs_review", "{odd}");
     let reasons: Vec<&str> = odd["verdict"]["reasons"]

@@ -30,7 +30,12 @@ async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> S
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_inadequate_run_is_marked_and_diagnosed_by_itself() {
     let app = spawn_app(1).await;
-    let run_id = upload_and_calibrate(&app, "RLG-MC1", &model_check_run(11, delayed_accelerometers())).await;
+    let run_id = upload_and_calibrate(
+        &app,
+        "RLG-MC1",
+        &model_check_run(11, delayed_accelerometers()),
+    )
+    .await;
 
     let result = app.get_result(&run_id).await;
     let check = &result["model_check"];
@@ -90,7 +95,12 @@ async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
     );
 
     // Inadequate, but with automatic diagnosis off: marked, not queued.
-    let bad = upload_and_calibrate(&app, "RLG-MC2", &model_check_run(13, delayed_accelerometers())).await;
+    let bad = upload_and_calibrate(
+        &app,
+        "RLG-MC2",
+        &model_check_run(13, delayed_accelerometers()),
+    )
+    .await;
     assert_eq!(app.get_run(&bad).await["review"], "needs_review");
     let r = app.post_diagnose(&app.admin, &bad).await;
     let (status, job): (StatusCode, Value) = (r.status(), r.json().await.unwrap());

@@ -131,7 +131,6 @@ pub fn delayed_accelerometers() -> Effects {
     }
 }
 
-
 /// Simulates a run into `dir`; `recorded_at` goes into its metadata.
 pub fn simulate_run(
     dir: &Path,
