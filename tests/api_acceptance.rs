@@ -23,14 +23,10 @@ async fn calibrated_run(app: &TestApp, serial: &str, product: &str, cfg: &SimCon
     let mut meta: Value = serde_json::from_slice(&run.metadata).unwrap();
     meta["product"] = json!(product);
     run.metadata = serde_json::to_vec(&meta).unwrap();
-    let r = app.upload_run(serial, &run).await;
-    assert_eq!(r.status(), StatusCode::ACCEPTED);
-    let up: Value = r.json().await.unwrap();
-    let job = app
-        .wait_job(up["job_id"].as_str().unwrap(), Duration::from_secs(300))
+    let (run_id, _) = app
+        .upload_and_calibrate(serial, &run, Duration::from_secs(300))
         .await;
-    assert_eq!(job["state"], "succeeded", "{job}");
-    app.get_run(up["run_id"].as_str().unwrap()).await
+    app.get_run(&run_id).await
 }
 
 async fn send(

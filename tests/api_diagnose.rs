@@ -29,14 +29,9 @@ async fn diagnose_job_names_accel_delay() {
         ..Effects::none()
     };
     let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-D1", None);
-    let r = app.upload_run("RLG-D1", &run).await;
-    assert_eq!(r.status(), StatusCode::ACCEPTED);
-    let up: Value = r.json().await.unwrap();
-    let run_id = up["run_id"].as_str().unwrap().to_string();
-    let calib = app
-        .wait_job(up["job_id"].as_str().unwrap(), Duration::from_secs(300))
+    let (run_id, calib) = app
+        .upload_and_calibrate("RLG-D1", &run, Duration::from_secs(300))
         .await;
-    assert_eq!(calib["state"], "succeeded", "{calib}");
     assert_eq!(calib["kind"], "calibrate");
 
     // Nothing asked for yet: 404.

@@ -17,14 +17,9 @@ use sinscal::sim::SimConfig;
 async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> String {
     let dir = tempfile::tempdir().unwrap();
     let run = simulate_run(dir.path(), cfg, DataFormat::F64le, false, serial, None);
-    let r = app.upload_run(serial, &run).await;
-    assert_eq!(r.status(), StatusCode::ACCEPTED);
-    let up: Value = r.json().await.unwrap();
-    let job = app
-        .wait_job(up["job_id"].as_str().unwrap(), Duration::from_secs(300))
-        .await;
-    assert_eq!(job["state"], "succeeded", "{job}");
-    up["run_id"].as_str().unwrap().to_string()
+    app.upload_and_calibrate(serial, &run, Duration::from_secs(300))
+        .await
+        .0
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

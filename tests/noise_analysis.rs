@@ -365,14 +365,9 @@ async fn the_api_serves_the_noise_of_a_stored_run() {
     let app = spawn_app(1).await;
     let dir = tempfile::tempdir().unwrap();
     let run = short_run(dir.path(), 5, DataFormat::F64le, "RLG-N1");
-    let r = app.upload_run("RLG-N1", &run).await;
-    assert_eq!(r.status(), StatusCode::ACCEPTED);
-    let up: Value = r.json().await.unwrap();
-    let run_id = up["run_id"].as_str().unwrap().to_string();
-    let job = app
-        .wait_job(up["job_id"].as_str().unwrap(), Duration::from_secs(120))
+    let (run_id, _) = app
+        .upload_and_calibrate("RLG-N1", &run, Duration::from_secs(120))
         .await;
-    assert_eq!(job["state"], "succeeded", "{job}");
 
     let engineer = app.create_token("engineer").await;
     let r = app.get(&engineer, &format!("/runs/{run_id}/noise")).await;

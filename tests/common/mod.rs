@@ -318,6 +318,22 @@ impl TestApp {
     }
 
     /// Polls a job until it is in a final state.
+    /// Uploads `run` (admin), waits up to `timeout` for its calibrate job
+    /// and asserts both went through: the run's id and the finished job.
+    pub async fn upload_and_calibrate(
+        &self,
+        serial: &str,
+        run: &SimRun,
+        timeout: Duration,
+    ) -> (String, Value) {
+        let r = self.upload_run(serial, run).await;
+        assert_eq!(r.status(), StatusCode::ACCEPTED);
+        let up: Value = r.json().await.unwrap();
+        let job = self.wait_job(up["job_id"].as_str().unwrap(), timeout).await;
+        assert_eq!(job["state"], "succeeded", "{job}");
+        (up["run_id"].as_str().unwrap().to_string(), job)
+    }
+
     pub async fn wait_job(&self, id: &str, timeout: Duration) -> Value {
         let start = Instant::now();
         loop {
