@@ -6,7 +6,8 @@
 //! strapdown), `model` (the 24-parameter error model and the extra effects),
 //! `sim` (schemes and record generation), `io` (run files, metadata, truth),
 //! `noise` (Allan deviation and the noise terms), `accept` (product
-//! types' limits and the verdict on a result);
+//! types' limits and the verdict on a result), `plot` (charts as SVG text
+//! for the server's pages);
 //! and the server: `store` (SQLite), `runfiles` (the run files on disk),
 //! `jobs` (durable queue, workers), `api` (HTTP), `server` (configuration,
 //! application).
@@ -25,6 +26,7 @@ pub mod model;
 pub mod nav;
 pub mod noise;
 pub mod pipeline;
+pub mod plot;
 pub mod record;
 pub mod runfiles;
 pub mod server;
