@@ -1,7 +1,9 @@
 //! Test harness: a real server on a random port with a fresh data folder
 //! and SQLite file, a client with one method per endpoint, and simulated
-//! runs to upload.
+//! runs to upload; `browser` drives a headless Chromium for the HTML pages.
 #![allow(dead_code)]
+
+pub mod browser;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
