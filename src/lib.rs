@@ -9,8 +9,8 @@
 //! types' limits and the verdict on a result), `plot` (charts as SVG text
 //! for the server's pages);
 //! and the server: `store` (SQLite), `runfiles` (the run files on disk),
-//! `jobs` (durable queue, workers), `api` (HTTP), `server` (configuration,
-//! application).
+//! `jobs` (durable queue, workers), `api` (HTTP), `web` (the workbench's
+//! pages), `server` (configuration, application).
 
 pub mod accept;
 pub mod api;
@@ -32,5 +32,6 @@ pub mod runfiles;
 pub mod server;
 pub mod sim;
 pub mod store;
+pub mod web;
 
 pub use record::Record;

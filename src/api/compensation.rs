@@ -44,7 +44,20 @@ async fn get_compensation(
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
     let Query(q) = query?;
-    let run = super::runs::stored_run(&st, &id).await?;
+    let file = compensation_of(&st, &id).await?;
+    Ok(match q.format {
+        FileForm::Json => {
+            ([(header::CONTENT_TYPE, "application/json")], file.to_json()).into_response()
+        }
+        FileForm::Csv => ([(header::CONTENT_TYPE, "text/csv")], file.to_csv()).into_response(),
+    })
+}
+
+/// The compensation file of a run's result (the API's and the run page's
+/// download); 404 while the run has no result.
+pub(crate) async fn compensation_of(st: &AppState, id: &str) -> Result<CompensationFile, ApiError> {
+    let id = id.to_string();
+    let run = super::runs::stored_run(st, &id).await?;
     let Some(json) = st.store.get_result(&id).await? else {
         // No result, no compensation: the file does not exist (yet).
         let state = st
@@ -73,10 +86,5 @@ async fn get_compensation(
     })
     .await
     .map_err(|e| ApiError::Internal(format!("compensation task: {e}")))??;
-    Ok(match q.format {
-        FileForm::Json => {
-            ([(header::CONTENT_TYPE, "application/json")], file.to_json()).into_response()
-        }
-        FileForm::Csv => ([(header::CONTENT_TYPE, "text/csv")], file.to_csv()).into_response(),
-    })
+    Ok(file)
 }

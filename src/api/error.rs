@@ -85,6 +85,33 @@ pub enum ApiError {
 }
 
 impl ApiError {
+    /// The HTTP status this error answers with (the pages answer with it
+    /// too).
+    pub fn status(&self) -> StatusCode {
+        match self {
+            ApiError::BadRequest(_) => StatusCode::BAD_REQUEST,
+            ApiError::Unauthenticated => StatusCode::UNAUTHORIZED,
+            ApiError::Forbidden(_) => StatusCode::FORBIDDEN,
+            ApiError::NotFound(_) => StatusCode::NOT_FOUND,
+            ApiError::MethodNotAllowed => StatusCode::METHOD_NOT_ALLOWED,
+            ApiError::RequestTimeout(_) => StatusCode::REQUEST_TIMEOUT,
+            ApiError::Conflict(_) => StatusCode::CONFLICT,
+            ApiError::PayloadTooLarge(_) => StatusCode::PAYLOAD_TOO_LARGE,
+            ApiError::UriTooLong(_) => StatusCode::URI_TOO_LONG,
+            ApiError::HeadersTooLarge(_) => StatusCode::REQUEST_HEADER_FIELDS_TOO_LARGE,
+            ApiError::Unprocessable(_)
+            | ApiError::InvalidField { .. }
+            | ApiError::InvalidMetadata(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ApiError::InvalidData(
+                DataError::TooLarge { .. } | DataError::ExpansionRatio { .. },
+            ) => StatusCode::PAYLOAD_TOO_LARGE,
+            ApiError::InvalidData(_) => StatusCode::UNPROCESSABLE_ENTITY,
+            ApiError::Unavailable { .. } => StatusCode::SERVICE_UNAVAILABLE,
+            ApiError::InsufficientStorage { .. } => StatusCode::INSUFFICIENT_STORAGE,
+            ApiError::Internal(_) => StatusCode::INTERNAL_SERVER_ERROR,
+        }
+    }
+
     /// The answer to a full disk.
     pub fn storage_full() -> ApiError {
         ApiError::InsufficientStorage {

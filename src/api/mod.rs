@@ -3,17 +3,18 @@
 //! problem+json in [`error`].
 
 pub mod auth;
-mod compensation;
+pub(crate) mod compensation;
 pub mod error;
 mod jobs;
-mod noise;
-mod products;
-mod runs;
+pub(crate) mod noise;
+pub(crate) mod products;
+pub(crate) mod runs;
 mod schemes;
-mod tokens;
-mod units;
+pub(crate) mod tokens;
+pub(crate) mod units;
 pub mod upload;
 pub mod upload_guard;
+mod upload_store;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -56,8 +57,10 @@ pub struct AppState {
     pub stopping: Arc<AtomicBool>,
 }
 
-/// The whole application's router.
-pub fn router(state: AppState) -> Router {
+/// The whole application's router: the API under `/api/v1`, the
+/// operations endpoints, and `pages` (the workbench's HTML, built by
+/// `web`, which uses this module: it is passed in rather than named here).
+pub fn router(state: AppState, pages: Router<AppState>) -> Router {
     let limit = usize::try_from(state.config.max_body_bytes).unwrap_or(usize::MAX);
     // Two separate limits, both needed: axum's DefaultBodyLimit (2 MB unless
     // changed) applies to its extractors, Multipart included; tower-http's
@@ -89,6 +92,7 @@ pub fn router(state: AppState) -> Router {
     Router::new()
         .nest("/api/v1", api)
         .merge(operations)
+        .merge(pages)
         .fallback(|| async { ApiError::NotFound("no such endpoint".into()) })
         .layer(axum::middleware::from_fn(bound_request_head))
         .layer(axum::middleware::map_response(ensure_problem))
@@ -103,7 +107,7 @@ pub fn router(state: AppState) -> Router {
 /// leaves the rest of the body in flight, so its HTTP/1 connection cannot
 /// carry another request: say so, or a client that pools it meets a broken
 /// pipe on its next request. (HTTP/2 streams need no such header.)
-async fn close_after_refused_upload(
+pub(crate) async fn close_after_refused_upload(
     req: axum::extract::Request,
     next: axum::middleware::Next,
 ) -> Response {
@@ -122,11 +126,11 @@ async fn close_after_refused_upload(
 /// extractor's rejection) into problem+json, keeping its headers.
 async fn ensure_problem(resp: Response) -> Response {
     let status = resp.status();
-    let is_problem = resp
-        .headers()
-        .get(header::CONTENT_TYPE)
-        .is_some_and(|v| v.as_bytes() == PROBLEM_JSON.as_bytes());
-    if !(status.is_client_error() || status.is_server_error()) || is_problem {
+    // Pages answer their errors as pages.
+    let is_problem_or_page = resp.headers().get(header::CONTENT_TYPE).is_some_and(|v| {
+        v.as_bytes() == PROBLEM_JSON.as_bytes() || v.as_bytes().starts_with(b"text/html")
+    });
+    if !(status.is_client_error() || status.is_server_error()) || is_problem_or_page {
         return resp;
     }
     let (parts, _) = resp.into_parts();

@@ -48,7 +48,13 @@ async fn get_noise(
 ) -> Result<Json<NoiseReport>, ApiError> {
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
-    let run = super::runs::stored_run(&st, &id).await?;
+    Ok(Json(analyse_noise(&st, &id).await?))
+}
+
+/// The noise analysis of a stored run (the API's answer and the noise
+/// page's), at most `noise_analyses` at once: 503 when all are busy.
+pub(crate) async fn analyse_noise(st: &AppState, id: &str) -> Result<NoiseReport, ApiError> {
+    let run = super::runs::stored_run(st, id).await?;
     let meta = RunMetadata::from_json(run.file.metadata.as_bytes())
         .map_err(|e| ApiError::Internal(format!("stored metadata of run {id}: {e}")))?;
     let data = RunFiles::new(st.config.data_dir.clone()).path(&run.file.blob_path);
@@ -70,5 +76,5 @@ async fn get_noise(
     })
     .await
     .map_err(|e| ApiError::Internal(format!("noise task: {e}")))??;
-    Ok(Json(report))
+    Ok(report)
 }

@@ -129,24 +129,15 @@ async fn create_product_type(
 ) -> Result<Response, ApiError> {
     auth.require(roles::ADMIN)?;
     let Json(req) = body?;
-    validate_product(&req.name).map_err(|message| ApiError::InvalidField {
-        field: "name".into(),
-        message,
-    })?;
-    check_description(req.description.as_deref())?;
-    let limits = ProductLimits::from_json(&req.limits, "limits")?;
-    let change = ProductTypeChange {
-        name: &req.name,
-        description: req.description.as_deref(),
-        limits: &limits,
-        by: &auth.token_id,
-    };
-    let row = st
-        .store
-        .create_product_type(change)
-        .await?
-        .ok_or_else(|| ApiError::Conflict(format!("product type {} exists", req.name)))?;
-    tracing::info!(product = %row.name, revision = row.revision, "product type created");
+    let row = save_product_type(
+        &st,
+        &auth,
+        &req.name,
+        req.description.as_deref(),
+        &req.limits,
+        true,
+    )
+    .await?;
     let url = format!("/api/v1/product-types/{}", row.name);
     let mut resp = (StatusCode::CREATED, Json(ProductTypeView::try_from(row)?)).into_response();
     if let Ok(v) = HeaderValue::from_str(&url) {
@@ -164,20 +155,15 @@ async fn update_product_type(
     auth.require(roles::ADMIN)?;
     let name = name_of(path)?;
     let Json(req) = body?;
-    check_description(req.description.as_deref())?;
-    let limits = ProductLimits::from_json(&req.limits, "limits")?;
-    let change = ProductTypeChange {
-        name: &name,
-        description: req.description.as_deref(),
-        limits: &limits,
-        by: &auth.token_id,
-    };
-    let row = st
-        .store
-        .update_product_type(change)
-        .await?
-        .ok_or_else(|| ApiError::NotFound(format!("no product type {name}")))?;
-    tracing::info!(product = %row.name, revision = row.revision, "product type changed");
+    let row = save_product_type(
+        &st,
+        &auth,
+        &name,
+        req.description.as_deref(),
+        &req.limits,
+        false,
+    )
+    .await?;
     Ok(Json(row.try_into()?))
 }
 
@@ -188,9 +174,56 @@ async fn delete_product_type(
 ) -> Result<StatusCode, ApiError> {
     auth.require(roles::ADMIN)?;
     let name = name_of(path)?;
-    if st.store.delete_product_type(&name, &auth.token_id).await? {
+    remove_product_type(&st, &auth, &name).await?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+/// Creates (`create`) or changes a product type from its limits as JSON
+/// (the API's and the admin page's); the verdicts it touches are judged
+/// again by the store.
+pub(crate) async fn save_product_type(
+    st: &AppState,
+    auth: &Auth,
+    name: &str,
+    description: Option<&str>,
+    limits: &serde_json::Value,
+    create: bool,
+) -> Result<ProductTypeRow, ApiError> {
+    validate_product(name).map_err(|message| ApiError::InvalidField {
+        field: "name".into(),
+        message,
+    })?;
+    check_description(description)?;
+    let limits = ProductLimits::from_json(limits, "limits")?;
+    let change = ProductTypeChange {
+        name,
+        description,
+        limits: &limits,
+        by: &auth.token_id,
+    };
+    let row = if create {
+        st.store
+            .create_product_type(change)
+            .await?
+            .ok_or_else(|| ApiError::Conflict(format!("product type {name} exists")))?
+    } else {
+        st.store
+            .update_product_type(change)
+            .await?
+            .ok_or_else(|| ApiError::NotFound(format!("no product type {name}")))?
+    };
+    tracing::info!(product = %row.name, revision = row.revision, "product type saved");
+    Ok(row)
+}
+
+pub(crate) async fn remove_product_type(
+    st: &AppState,
+    auth: &Auth,
+    name: &str,
+) -> Result<(), ApiError> {
+    if st.store.delete_product_type(name, &auth.token_id).await? {
         tracing::info!(product = %name, "product type deleted");
-        Ok(StatusCode::NO_CONTENT)
+        Ok(())
     } else {
         Err(ApiError::NotFound(format!("no product type {name}")))
     }

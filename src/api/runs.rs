@@ -1,5 +1,6 @@
-//! Runs: read one, its result, delete one; queue its diagnosis and read
-//! the latest report. (Uploads are in `upload`.)
+//! Runs: read one, its result, delete one; queue its diagnosis or its
+//! calibration again, and read the latest report. (Uploads are in
+//! `upload`.) The actions are functions the pages call too.
 
 use axum::extract::rejection::PathRejection;
 use axum::extract::{Path, State};
@@ -20,7 +21,9 @@ use super::{parse_id, rfc3339, AppState};
 use crate::accept::Verdict;
 use crate::diagnose::DiagnoseReport;
 use crate::runfiles::RunFiles;
-use crate::store::{DiagnoseQueued, JobRow, Review, RunDeletion, RunRow, StoredVerdict};
+use crate::store::{
+    CalibrationRequeued, DiagnoseQueued, JobRow, Review, RunDeletion, RunRow, StoredVerdict,
+};
 
 #[derive(Serialize)]
 pub struct RunView {
@@ -121,12 +124,13 @@ pub fn router() -> Router<AppState> {
         .route("/runs/{id}", get(get_run).delete(delete_run))
         .route("/runs/{id}/result", get(get_result))
         .route("/runs/{id}/diagnose", post(diagnose_run))
+        .route("/runs/{id}/calibrate", post(recalibrate_run))
         .route("/runs/{id}/diagnosis", get(get_diagnosis))
         .route("/runs/{id}/diagnosis/gap.svg", get(get_diagnosis_gap_svg))
 }
 
 /// The run `id`, or a 404 naming it (for the readers of every run).
-pub(super) async fn stored_run(st: &AppState, id: &str) -> Result<RunRow, ApiError> {
+pub(crate) async fn stored_run(st: &AppState, id: &str) -> Result<RunRow, ApiError> {
     st.store
         .get_run(id)
         .await?
@@ -156,13 +160,19 @@ async fn get_result(
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
-    let run = stored_run(&st, &id).await?;
-    if let Some(json) = st.store.get_result(&id).await? {
+    let json = result_document(&st, &id).await?;
+    Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response())
+}
+
+/// A run's result document with its verdict (the API's answer and the run
+/// page's download); 409 while the run has none.
+pub(crate) async fn result_document(st: &AppState, id: &str) -> Result<String, ApiError> {
+    let run = stored_run(st, id).await?;
+    if let Some(json) = st.store.get_result(id).await? {
         // Stored as serialized by the estimator's own types: served as is,
         // with the verdict (which changes with the limits) put in front.
         let verdict = run.verdict()?.map(VerdictView::from);
-        let json = with_verdict(json, verdict.as_ref())?;
-        return Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response());
+        return with_verdict(json, verdict.as_ref());
     }
     let state = st
         .store
@@ -202,13 +212,21 @@ async fn delete_run(
 ) -> Result<StatusCode, ApiError> {
     auth.require(roles::ADMIN)?;
     let id = parse_id(path?.0, "run")?;
-    match st.store.delete_run(&id).await? {
+    remove_run(&st, &id).await?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+/// Deletes a run, its file and everything derived from it (the API's
+/// DELETE and the run page's button).
+pub(crate) async fn remove_run(st: &AppState, id: &str) -> Result<(), ApiError> {
+    match st.store.delete_run(id).await? {
         RunDeletion::Deleted { blob_path } => {
             // The rows are gone first: a crash before this line leaves an
             // orphan file, which the startup sweep removes.
             let files = RunFiles::new(st.config.data_dir.clone());
             let _ = tokio::task::spawn_blocking(move || files.remove(&blob_path)).await;
-            Ok(StatusCode::NO_CONTENT)
+            tracing::info!(run = %id, "run deleted");
+            Ok(())
         }
         RunDeletion::NoRun => Err(ApiError::NotFound(format!("no run {id}"))),
         RunDeletion::JobBusy(state) => Err(ApiError::Conflict(format!(
@@ -237,32 +255,92 @@ async fn diagnose_run(
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
     let id = parse_id(path?.0, "run")?;
+    let queued = queue_diagnosis(&st, &id).await?;
+    let status = if queued.created {
+        StatusCode::ACCEPTED
+    } else {
+        StatusCode::OK
+    };
+    Ok(job_answer(status, queued.job))
+}
+
+/// Queues the run's calibration again (202), replacing its result when it
+/// has one; 409 while its calibration is queued or running.
+async fn recalibrate_run(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+) -> Result<Response, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let id = parse_id(path?.0, "run")?;
+    let job = queue_recalibration(&st, &id).await?;
+    Ok(job_answer(StatusCode::ACCEPTED, job))
+}
+
+/// A job a run action queued, or the one it found already waiting.
+pub(crate) struct QueuedJob {
+    pub job: JobRow,
+    pub created: bool,
+}
+
+fn refuse_while_stopping(st: &AppState) -> Result<(), ApiError> {
     if st.stopping.load(Ordering::Relaxed) {
         return Err(ApiError::Unavailable {
             detail: "the server is shutting down".into(),
             retry_after_s: 10,
         });
     }
+    Ok(())
+}
+
+/// Queues a diagnosis of a run unless one is queued or running already.
+pub(crate) async fn queue_diagnosis(st: &AppState, id: &str) -> Result<QueuedJob, ApiError> {
+    refuse_while_stopping(st)?;
     let job_id = uuid::Uuid::new_v4().hyphenated().to_string();
     match st
         .store
-        .queue_diagnose_job(&id, &job_id, st.config.max_attempts, st.config.max_queue)
+        .queue_diagnose_job(id, &job_id, st.config.max_attempts, st.config.max_queue)
         .await?
     {
         DiagnoseQueued::Created(job) => {
             st.wake.notify_one();
             tracing::info!(run = %id, job = %job.id, "diagnosis queued");
-            Ok(job_answer(StatusCode::ACCEPTED, job))
+            Ok(QueuedJob { job, created: true })
         }
-        DiagnoseQueued::Existing(job) => Ok(job_answer(StatusCode::OK, job)),
+        DiagnoseQueued::Existing(job) => Ok(QueuedJob {
+            job,
+            created: false,
+        }),
         DiagnoseQueued::NoRun => Err(ApiError::NotFound(format!("no run {id}"))),
         DiagnoseQueued::QueueFull => Err(queue_full()),
     }
 }
 
+/// Queues a run's calibration again.
+pub(crate) async fn queue_recalibration(st: &AppState, id: &str) -> Result<JobRow, ApiError> {
+    refuse_while_stopping(st)?;
+    match st
+        .store
+        .requeue_calibration(id, st.config.max_attempts, st.config.max_queue)
+        .await?
+    {
+        CalibrationRequeued::Queued(job) => {
+            st.wake.notify_one();
+            tracing::info!(run = %id, job = %job.id, "calibration queued again");
+            Ok(job)
+        }
+        CalibrationRequeued::Busy(job) => Err(ApiError::Conflict(format!(
+            "run {id}'s calibration job {} is {}: wait for it to settle first",
+            job.id, job.state
+        ))),
+        CalibrationRequeued::NoRun => Err(ApiError::NotFound(format!("no run {id}"))),
+        CalibrationRequeued::QueueFull => Err(queue_full()),
+    }
+}
+
 /// The latest successful diagnosis report of a run, as stored. 409 while
 /// its diagnose job has not succeeded, 404 if none was ever asked for.
-async fn latest_report(st: &AppState, id: &str) -> Result<String, ApiError> {
+pub(crate) async fn latest_report(st: &AppState, id: &str) -> Result<String, ApiError> {
     if let Some(json) = st.store.latest_diagnosis(id).await? {
         return Ok(json);
     }

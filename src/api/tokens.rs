@@ -15,8 +15,8 @@ use crate::store::Role;
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NewTokenRequest {
-    role: Role,
-    label: Option<String>,
+    pub role: Role,
+    pub label: Option<String>,
 }
 
 #[derive(Serialize)]
@@ -50,6 +50,15 @@ async fn create_token(
 ) -> Result<(StatusCode, Json<NewTokenView>), ApiError> {
     auth.require(roles::ADMIN)?;
     let Json(req) = body?;
+    Ok((StatusCode::CREATED, Json(issue_token(&st, req).await?)))
+}
+
+/// Makes a token (the API's and the admin page's): the only moment its
+/// secret exists outside the caller's hands.
+pub(crate) async fn issue_token(
+    st: &AppState,
+    req: NewTokenRequest,
+) -> Result<NewTokenView, ApiError> {
     if req.label.as_ref().is_some_and(|l| l.len() > 200) {
         return Err(ApiError::BadRequest(
             "label is longer than 200 bytes".into(),
@@ -60,15 +69,13 @@ async fn create_token(
     st.store
         .insert_token(&id, &hash, req.role, req.label.as_deref())
         .await?;
-    Ok((
-        StatusCode::CREATED,
-        Json(NewTokenView {
-            id,
-            role: req.role,
-            label: req.label,
-            token,
-        }),
-    ))
+    tracing::info!(token = %id, role = req.role.as_str(), "token issued");
+    Ok(NewTokenView {
+        id,
+        role: req.role,
+        label: req.label,
+        token,
+    })
 }
 
 async fn list_tokens(
@@ -97,11 +104,18 @@ async fn revoke_token(
 ) -> Result<StatusCode, ApiError> {
     auth.require(roles::ADMIN)?;
     let id = parse_id(path?.0, "token")?;
+    revoke(&st, &auth, &id).await?;
+    Ok(StatusCode::NO_CONTENT)
+}
+
+/// Revokes another live token; its sessions end with it.
+pub(crate) async fn revoke(st: &AppState, auth: &Auth, id: &str) -> Result<(), ApiError> {
     if id == auth.token_id {
         return Err(ApiError::Conflict("a token cannot revoke itself".into()));
     }
-    if st.store.revoke_token(&id).await? {
-        Ok(StatusCode::NO_CONTENT)
+    if st.store.revoke_token(id).await? {
+        tracing::info!(token = %id, "token revoked");
+        Ok(())
     } else {
         Err(ApiError::NotFound(format!("no live token {id}")))
     }

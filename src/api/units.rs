@@ -193,6 +193,7 @@ async fn list_units(
     let filter = UnitFilter {
         verdict: q.verdict,
         product: q.product,
+        serial_contains: None,
     };
     let (total, rows) = st.store.list_units(&filter, limit, offset).await?;
     Ok(Json(UnitList {

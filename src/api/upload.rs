@@ -14,23 +14,23 @@ use std::sync::atomic::Ordering;
 use axum::body::Bytes;
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{FromRequest, Multipart, Path, Query, Request, State};
-use axum::http::{header, HeaderMap, HeaderValue, StatusCode};
-use axum::response::{IntoResponse, Response};
-use axum::Json;
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::Response;
 use bytes::Buf;
 use futures_util::{Stream, StreamExt, TryStreamExt};
-use serde::{Deserialize, Serialize};
+use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
+pub use super::upload_store::{queue_full, UploadAnswer};
+use super::upload_store::{store_run, Ingested, StoredRun};
 use super::AppState;
 use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
 use crate::metrics::UploadOutcome;
-use crate::runfiles::{Pending, RunFiles};
-use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunFile, RunRow};
+use crate::runfiles::RunFiles;
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.
 pub const METADATA_HEADER: &str = "x-sinscal-metadata";
@@ -42,34 +42,10 @@ const MAX_METADATA_BYTES: usize = 256 * 1024;
 /// decompression, only the network, and is paced like the body; 16 MiB
 /// covers a refused 10 MB upload whole.
 const MAX_DRAIN_BYTES: u64 = 16 << 20;
-/// Shortest run accepted: the estimator needs at least two dwells of 20 s
-/// (one to align on, another attitude to observe anything) and a turn.
-const MIN_RUN_SECONDS: f64 = 40.0;
 
 #[derive(Debug, Deserialize)]
 pub struct UploadQuery {
     metadata: Option<String>,
-}
-
-/// The answer to an upload (202 for a new run, 200 for one already stored).
-#[derive(Debug, Serialize)]
-pub struct UploadAnswer {
-    pub run_id: String,
-    pub job_id: String,
-    /// False when the same bytes were already stored for this unit.
-    pub created: bool,
-    pub sha256: String,
-    pub run_url: String,
-    pub job_url: String,
-}
-
-/// A body received, hashed and (when the metadata came first) validated.
-struct Ingested {
-    file: Pending,
-    sha256: String,
-    size: u64,
-    /// Records and gzip-ness, once validated.
-    checked: Option<(u64, bool)>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -261,10 +237,12 @@ where
     })
 }
 
-fn parse_metadata(text: &[u8], serial: &str) -> Result<RunMetadata, ApiError> {
+/// The metadata of an upload, which must name the unit of the path when
+/// there is one (`serial`).
+fn parse_metadata(text: &[u8], serial: Option<&str>) -> Result<RunMetadata, ApiError> {
     let meta =
         RunMetadata::from_json(text).map_err(|e| ApiError::InvalidMetadata(e.to_string()))?;
-    if meta.unit_serial != serial {
+    if let Some(serial) = serial.filter(|s| *s != meta.unit_serial) {
         return Err(ApiError::InvalidMetadata(format!(
             "metadata unit_serial {:?} differs from the unit in the path {serial:?}",
             meta.unit_serial
@@ -297,49 +275,6 @@ fn multipart_error(e: axum::extract::multipart::MultipartError) -> ApiError {
     }
 }
 
-fn answer(status: StatusCode, run_id: &str, job_id: &str, sha256: &str) -> Response {
-    let run_url = format!("/api/v1/runs/{run_id}");
-    let body = UploadAnswer {
-        run_id: run_id.to_string(),
-        job_id: job_id.to_string(),
-        created: status == StatusCode::ACCEPTED,
-        sha256: sha256.to_string(),
-        job_url: format!("/api/v1/jobs/{job_id}"),
-        run_url: run_url.clone(),
-    };
-    let mut resp = (status, Json(body)).into_response();
-    if let Ok(v) = HeaderValue::from_str(&run_url) {
-        resp.headers_mut().insert(header::LOCATION, v);
-    }
-    resp
-}
-
-/// The answer to bytes already stored for the unit. A station learns of
-/// another uploader's run nothing but that it exists (no ids, no
-/// metadata); bytes re-sent with different metadata are refused rather
-/// than silently answered with the old run.
-fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<Response, ApiError> {
-    if auth.role == Role::Station && run.uploaded_by.as_deref() != Some(auth.token_id.as_str()) {
-        return Err(ApiError::Conflict(
-            "these bytes are already stored for this unit by another uploader".into(),
-        ));
-    }
-    if run.file.metadata != metadata {
-        return Err(ApiError::Conflict(format!(
-            "these bytes are already stored for this unit as run {} with different metadata; \
-             to store them with the new metadata an admin deletes that run first \
-             (DELETE /api/v1/runs/{})",
-            run.id, run.id
-        )));
-    }
-    Ok(answer(
-        StatusCode::OK,
-        &run.id,
-        &run.job_id,
-        &run.file.sha256,
-    ))
-}
-
 /// Refuses an upload while the data folder's filesystem is below its
 /// free-space floor, before a byte of the body is read.
 fn check_free_space(st: &AppState) -> Result<(), ApiError> {
@@ -357,13 +292,6 @@ fn check_free_space(st: &AppState) -> Result<(), ApiError> {
     }
 }
 
-pub fn queue_full() -> ApiError {
-    ApiError::Unavailable {
-        detail: "the calibration queue is full; retry later".into(),
-        retry_after_s: 30,
-    }
-}
-
 pub async fn upload(
     State(st): State<AppState>,
     auth: Auth,
@@ -376,28 +304,7 @@ pub async fn upload(
     let Path(serial) = path?;
     validate_serial(&serial).map_err(ApiError::BadRequest)?;
     let Query(query) = query?;
-    if st.stopping.load(Ordering::Relaxed) {
-        return Err(ApiError::Unavailable {
-            detail: "the server is shutting down".into(),
-            retry_after_s: 10,
-        });
-    }
-    // Checked before reading the body so a full queue or disk costs the
-    // station nothing; checked again in the insert transaction.
-    if st.store.queue_depth().await? >= st.config.max_queue {
-        st.metrics.upload(UploadOutcome::Refused);
-        return Err(queue_full());
-    }
-    if let Err(e) = check_free_space(&st) {
-        st.metrics.upload(UploadOutcome::Refused);
-        return Err(e);
-    }
-    let _permit = st
-        .uploads
-        .clone()
-        .acquire_owned()
-        .await
-        .map_err(|_| ApiError::Internal("upload semaphore closed".into()))?;
+    let _permit = admit(&st).await?;
     let multipart = headers
         .get(header::CONTENT_TYPE)
         .and_then(|v| v.to_str().ok())
@@ -410,7 +317,7 @@ pub async fn upload(
         axum::body::Body::from_stream(paced(body, st.config.upload_pace)),
     );
     let outcome = if multipart {
-        receive_multipart(&st, &serial, req).await
+        receive_multipart(&st, Some(&serial), req).await
     } else {
         let text = match (headers.get(METADATA_HEADER), &query.metadata) {
             (Some(h), _) => h.as_bytes().to_vec(),
@@ -422,7 +329,7 @@ pub async fn upload(
                 )))
             }
         };
-        match parse_metadata(&text, &serial) {
+        match parse_metadata(&text, Some(&serial)) {
             Ok(meta) => {
                 let body = req
                     .into_body()
@@ -440,12 +347,63 @@ pub async fn upload(
             return Err(e);
         }
     };
-    store_run(&st, &auth, &serial, meta, ingested).await
+    Ok(store_run(&st, &auth, meta, ingested).await?.answer())
+}
+
+/// What every upload passes before a byte of its body is read: the server
+/// is not stopping, the queue and the disk have room, and an upload slot
+/// is free (held by the returned permit).
+async fn admit(st: &AppState) -> Result<tokio::sync::OwnedSemaphorePermit, ApiError> {
+    if st.stopping.load(Ordering::Relaxed) {
+        return Err(ApiError::Unavailable {
+            detail: "the server is shutting down".into(),
+            retry_after_s: 10,
+        });
+    }
+    // Checked before reading the body so a full queue or disk costs the
+    // station nothing; checked again in the insert transaction.
+    if st.store.queue_depth().await? >= st.config.max_queue {
+        st.metrics.upload(UploadOutcome::Refused);
+        return Err(queue_full());
+    }
+    if let Err(e) = check_free_space(st) {
+        st.metrics.upload(UploadOutcome::Refused);
+        return Err(e);
+    }
+    st.uploads
+        .clone()
+        .acquire_owned()
+        .await
+        .map_err(|_| ApiError::Internal("upload semaphore closed".into()))
+}
+
+/// An upload from the pages' form: multipart with a `metadata` part and a
+/// `data` part, the unit named by the metadata. Everything else is the
+/// API's upload: the same checks, limits, pacing and storage.
+pub(crate) async fn upload_form(
+    st: &AppState,
+    auth: &Auth,
+    req: Request,
+) -> Result<StoredRun, ApiError> {
+    auth.require(roles::UPLOAD)?;
+    let _permit = admit(st).await?;
+    let (parts, body) = req.into_parts();
+    let req = Request::from_parts(
+        parts,
+        axum::body::Body::from_stream(paced(body, st.config.upload_pace)),
+    );
+    match receive_multipart(st, None, req).await {
+        Ok((meta, ingested)) => store_run(st, auth, meta, ingested).await,
+        Err(e) => {
+            st.metrics.upload(UploadOutcome::Refused);
+            Err(e)
+        }
+    }
 }
 
 async fn receive_multipart(
     st: &AppState,
-    serial: &str,
+    serial: Option<&str>,
     req: Request,
 ) -> Result<(RunMetadata, Ingested), ApiError> {
     let mut form = Multipart::from_request(req, st)
@@ -510,89 +468,4 @@ async fn receive_multipart(
         data.checked = Some(checked);
     }
     Ok((meta, data))
-}
-
-async fn store_run(
-    st: &AppState,
-    auth: &Auth,
-    serial: &str,
-    meta: RunMetadata,
-    data: Ingested,
-) -> Result<Response, ApiError> {
-    let (records, gzip) = data.checked.unwrap_or((0, false));
-    let span_s = records.saturating_sub(1) as f64 / meta.sample_rate_hz;
-    if span_s < MIN_RUN_SECONDS {
-        st.metrics.upload(UploadOutcome::Refused);
-        return Err(ApiError::Unprocessable(format!(
-            "the run spans {span_s:.2} s ({records} records at {} Hz): a calibration needs at \
-             least {MIN_RUN_SECONDS} s (two dwells of 20 s and a turn between them)",
-            meta.sample_rate_hz
-        )));
-    }
-    let metadata = serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?;
-    if let Some(existing) = st.store.find_run_by_hash(serial, &data.sha256).await? {
-        st.metrics.upload(UploadOutcome::Duplicate);
-        return existing_answer(auth, &existing, &metadata);
-    }
-    let run_id = uuid::Uuid::new_v4().to_string();
-    let job_id = uuid::Uuid::new_v4().to_string();
-    let ext = match (meta.format, gzip) {
-        (DataFormat::Csv, false) => "csv",
-        (DataFormat::Csv, true) => "csv.gz",
-        (DataFormat::F64le, _) => "bin",
-    };
-    let blob_path = RunFiles::blob_path(&run_id, ext);
-    // Until the rows commit, the file is `stored`'s, removed on any early
-    // return; the startup sweep covers a crash.
-    let files = RunFiles::new(st.config.data_dir.clone());
-    let stored = data.file.commit_off_runtime(files, &blob_path).await?;
-    // Checked when the metadata was parsed.
-    let recorded_at = meta.recorded_at_ms().map_err(ApiError::InvalidMetadata)?;
-    let new = NewRun {
-        run_id: run_id.clone(),
-        job_id: job_id.clone(),
-        unit_serial: serial.to_string(),
-        file: RunFile {
-            sha256: data.sha256.clone(),
-            size_bytes: data.size as i64,
-            records: records as i64,
-            format: meta.format.to_string(),
-            gzip,
-            blob_path,
-            metadata: metadata.clone(),
-        },
-        recorded_at,
-        uploaded_at: now_ms(),
-        max_attempts: st.config.max_attempts,
-        uploaded_by: Some(auth.token_id.clone()),
-        product: meta.product.clone(),
-    };
-    match st
-        .store
-        .insert_run_and_job(&new, st.config.max_queue)
-        .await?
-    {
-        InsertOutcome::Created => {
-            stored.keep();
-            st.wake.notify_one();
-            st.metrics.upload(UploadOutcome::Accepted);
-            tracing::info!(run = %run_id, job = %job_id, unit = serial, bytes = data.size, "run stored");
-            Ok(answer(StatusCode::ACCEPTED, &run_id, &job_id, &data.sha256))
-        }
-        InsertOutcome::Existing { run_id, .. } => {
-            // Stored by a concurrent upload of the same bytes since the
-            // check above.
-            st.metrics.upload(UploadOutcome::Duplicate);
-            let existing = st
-                .store
-                .get_run(&run_id)
-                .await?
-                .ok_or_else(|| ApiError::Internal(format!("run {run_id} vanished")))?;
-            existing_answer(auth, &existing, &metadata)
-        }
-        InsertOutcome::QueueFull => {
-            st.metrics.upload(UploadOutcome::Refused);
-            Err(queue_full())
-        }
-    }
 }

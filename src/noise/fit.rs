@@ -59,6 +59,24 @@ pub struct NoiseTerms {
     pub random_walk: f64,
 }
 
+impl NoiseTerms {
+    /// The model's Allan deviation at τ, SI (the fitted curve a plot
+    /// draws over the measured one).
+    pub fn allan_deviation(&self, tau_s: f64) -> f64 {
+        let (q, n, b, k) = (
+            self.quantization,
+            self.white,
+            self.flicker,
+            self.random_walk,
+        );
+        (3.0 * q * q / (tau_s * tau_s)
+            + n * n / tau_s
+            + FLICKER_FLOOR * b * b
+            + k * k * tau_s / 3.0)
+            .sqrt()
+    }
+}
+
 /// A fit and how well the model follows the curve.
 #[derive(Clone, Debug)]
 pub struct TermFit {

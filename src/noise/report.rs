@@ -76,6 +76,40 @@ impl GyroNoise {
     }
 }
 
+impl GyroNoise {
+    /// The identified terms back in SI (the inverse of [`Self::from_fit`]).
+    pub fn terms_si(&self) -> NoiseTerms {
+        NoiseTerms {
+            quantization: self.angle_quantization_arcsec * ARCSEC,
+            white: self.arw_deg_rt_h * DEG_PER_RT_H,
+            flicker: self.bias_instability_deg_h * DEG_PER_H,
+            random_walk: self.rate_random_walk_deg_h_rt_h * DEG_PER_H / RT_HOUR_S,
+        }
+    }
+
+    /// The fitted Allan deviation at τ, deg/h.
+    pub fn model_adev_deg_h(&self, tau_s: f64) -> f64 {
+        self.terms_si().allan_deviation(tau_s) / DEG_PER_H
+    }
+}
+
+impl AccelNoise {
+    /// The identified terms back in SI (the inverse of [`Self::from_fit`]).
+    pub fn terms_si(&self) -> NoiseTerms {
+        NoiseTerms {
+            quantization: self.velocity_quantization_mm_s * 1e-3,
+            white: self.vrw_ug_rt_hz * UG_PER_RT_HZ,
+            flicker: self.bias_instability_ug * UG,
+            random_walk: self.acceleration_random_walk_ug_rt_h * UG / RT_HOUR_S,
+        }
+    }
+
+    /// The fitted Allan deviation at τ, µg.
+    pub fn model_adev_ug(&self, tau_s: f64) -> f64 {
+        self.terms_si().allan_deviation(tau_s) / UG
+    }
+}
+
 impl AccelNoise {
     pub fn from_fit(fit: &TermFit) -> Self {
         let t: &NoiseTerms = &fit.terms;
@@ -213,5 +247,49 @@ impl NoiseReport {
             out.push_str(&format!("warning: {w}\n"));
         }
         out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit_of(terms: NoiseTerms) -> TermFit {
+        TermFit {
+            terms,
+            edf: Vec::new(),
+            rms_z: 0.0,
+        }
+    }
+
+    /// The report's units and back give the fitted terms, so a plotted
+    /// model curve is the fit's own.
+    #[test]
+    fn terms_round_trip_through_the_report_units() {
+        let terms = NoiseTerms {
+            quantization: 2e-6,
+            white: 3e-7,
+            flicker: 4e-8,
+            random_walk: 5e-9,
+        };
+        for back in [
+            GyroNoise::from_fit(&fit_of(terms)).terms_si(),
+            AccelNoise::from_fit(&fit_of(terms)).terms_si(),
+        ] {
+            for (a, b) in [
+                (back.quantization, terms.quantization),
+                (back.white, terms.white),
+                (back.flicker, terms.flicker),
+                (back.random_walk, terms.random_walk),
+            ] {
+                assert!((a / b - 1.0).abs() < 1e-12, "{a} against {b}");
+            }
+        }
+        // White noise alone falls as 1/√τ.
+        let white = NoiseTerms {
+            white: 1.0,
+            ..NoiseTerms::default()
+        };
+        assert!((white.allan_deviation(4.0) - 0.5).abs() < 1e-15);
     }
 }

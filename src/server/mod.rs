@@ -161,7 +161,10 @@ impl Application {
             poll,
         );
         let state = self.state.clone();
-        let app = api::router(self.state.clone());
+        let app = api::router(
+            self.state.clone(),
+            crate::web::router(self.state.config.max_body_bytes),
+        );
         let (stopped_tx, stopped_rx) = tokio::sync::oneshot::channel::<()>();
         let stop_signal = async move {
             shutdown.await;

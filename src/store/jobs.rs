@@ -1,5 +1,5 @@
 //! Jobs as rows: reading them, counting them, cancelling them, and queueing
-//! a diagnosis. (What a worker does to the job it holds is `queue`.)
+//! a diagnosis or a calibration again. (What a worker does to the job it holds is `queue`.)
 
 use std::collections::BTreeMap;
 
@@ -8,6 +8,7 @@ use sqlx::FromRow;
 use super::db::{now_ms, Store};
 use super::error::StoreError;
 use super::kinds::{JobKind, JobState};
+use super::verdicts::refresh_unit;
 
 #[derive(Clone, Debug, FromRow)]
 pub struct JobRow {
@@ -171,6 +172,75 @@ impl Store {
         .await?;
         tx.commit().await?;
         Ok(DiagnoseQueued::Created(job))
+    }
+}
+
+/// What asking to calibrate a run again did.
+#[derive(Debug)]
+pub enum CalibrationRequeued {
+    /// The run's calibration job is queued again; its earlier result (if
+    /// any) is removed and the unit's verdicts judged again without it.
+    Queued(JobRow),
+    /// The calibration job is queued or running already.
+    Busy(JobRow),
+    NoRun,
+    QueueFull,
+}
+
+impl Store {
+    /// Queues a run's one calibration job again (after a change of the
+    /// server's error model or tolerances, or a failure that was fixed),
+    /// in one transaction with the removal of the result it replaces. The
+    /// attempt counter keeps counting, since it fences the job's leases: a
+    /// worker of an earlier attempt can never write the new result.
+    pub async fn requeue_calibration(
+        &self,
+        run_id: &str,
+        max_attempts: i64,
+        max_queue: i64,
+    ) -> Result<CalibrationRequeued, StoreError> {
+        let now = now_ms();
+        let mut tx = self.begin_write().await?;
+        let job: Option<JobRow> =
+            sqlx::query_as("SELECT * FROM jobs WHERE run_id = ? AND kind = 'calibrate'")
+                .bind(run_id)
+                .fetch_optional(&mut *tx)
+                .await?;
+        let Some(job) = job else {
+            return Ok(CalibrationRequeued::NoRun);
+        };
+        if matches!(job.state, JobState::Queued | JobState::Running) {
+            return Ok(CalibrationRequeued::Busy(job));
+        }
+        if count_queued(&mut *tx).await? >= max_queue {
+            return Ok(CalibrationRequeued::QueueFull);
+        }
+        let (serial, run_time): (String, i64) =
+            sqlx::query_as("SELECT unit_serial, run_time FROM runs WHERE id = ?")
+                .bind(run_id)
+                .fetch_one(&mut *tx)
+                .await?;
+        for sql in [
+            "DELETE FROM result_documents WHERE run_id = ?",
+            "DELETE FROM results WHERE run_id = ?",
+        ] {
+            sqlx::query(sql).bind(run_id).execute(&mut *tx).await?;
+        }
+        let job = sqlx::query_as(
+            "UPDATE jobs SET state = 'queued', max_attempts = attempts + ?, lease_owner = NULL,
+                 lease_expires_at = NULL, heartbeat_at = NULL, run_after = ?, progress = 0,
+                 stage = NULL, cancel_requested = 0, error = NULL, started_at = NULL,
+                 finished_at = NULL
+             WHERE id = ? RETURNING *",
+        )
+        .bind(max_attempts)
+        .bind(now)
+        .bind(&job.id)
+        .fetch_one(&mut *tx)
+        .await?;
+        refresh_unit(&mut tx, &serial, Some((run_time, run_id)), now).await?;
+        tx.commit().await?;
+        Ok(CalibrationRequeued::Queued(job))
     }
 }
 

@@ -11,8 +11,10 @@
 //! - `db`: [`Store`] itself: pools, opening with migrations, the write
 //!   transaction, the readiness probes;
 //! - `tokens`: bearer tokens;
+//! - `sessions`: the pages' browser sessions, each acting for a live token;
 //! - `runs`: a run's row with its calibration job, reads, deletion;
-//! - `jobs`: job rows: reads, counts, cancel, queueing a diagnosis;
+//! - `jobs`: job rows: reads, counts, cancel, queueing a diagnosis,
+//!   queueing a calibration again;
 //! - `queue`: what a worker does to the job it holds (claim, heartbeat,
 //!   complete, fail, cancel, release), every write behind one fence;
 //! - `results`: results, diagnoses, units, history, repeatability;
@@ -31,13 +33,14 @@ mod products;
 mod queue;
 mod results;
 mod runs;
+mod sessions;
 mod spread;
 mod tokens;
 mod verdicts;
 
 pub use db::{now_ms, Store};
 pub use error::{is_storage_full_io, StoreError};
-pub use jobs::{DiagnoseQueued, JobRow};
+pub use jobs::{CalibrationRequeued, DiagnoseQueued, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};
 pub use queue::{Claim, Fence, OnInadequate};

@@ -253,6 +253,7 @@ mod tests {
         let filter = UnitFilter {
             verdict: Some(verdict),
             product: None,
+            serial_contains: None,
         };
         let (_, rows) = store.list_units(&filter, 10, 0).await.unwrap();
         rows.into_iter().map(|u| u.serial).collect()
@@ -338,6 +339,7 @@ mod tests {
         let filter = UnitFilter {
             verdict: None,
             product: Some("P1".into()),
+            serial_contains: None,
         };
         let (total, _) = store.list_units(&filter, 10, 0).await.unwrap();
         assert_eq!(total, 1);

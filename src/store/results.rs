@@ -22,6 +22,8 @@ pub struct UnitSummary {
     pub runs: i64,
     pub calibrated: i64,
     pub last_run_time: Option<i64>,
+    /// When its latest calibrated run's result was stored.
+    pub calibrated_at: Option<i64>,
     /// The product its latest run names.
     pub product: Option<String>,
     /// The verdict of its latest calibrated run (the columns of
@@ -56,6 +58,8 @@ pub struct UnitFilter {
     pub verdict: Option<VerdictStatus>,
     /// Units whose latest run names this product.
     pub product: Option<String>,
+    /// Units whose serial contains this text (the pages' search).
+    pub serial_contains: Option<String>,
 }
 
 #[derive(Clone, Debug, FromRow)]
@@ -90,7 +94,7 @@ const UNIT_COLUMNS: &str = "u.serial, u.created_at,
     (SELECT COUNT(*) FROM runs r WHERE r.unit_serial = u.serial) AS runs,
     (SELECT COUNT(*) FROM results s WHERE s.unit_serial = u.serial) AS calibrated,
     (SELECT MAX(run_time) FROM runs r WHERE r.unit_serial = u.serial) AS last_run_time,
-    u.product, v.run_id AS verdict_run_id, v.verdict_detail, v.verdict_product,
+    v.completed_at AS calibrated_at, u.product, v.run_id AS verdict_run_id, v.verdict_detail, v.verdict_product,
     v.verdict_revision, v.verdict_at
     FROM units u LEFT JOIN results v ON v.run_id =
         (SELECT s.run_id FROM results s WHERE s.unit_serial = u.serial
@@ -133,6 +137,17 @@ impl Store {
         if filter.product.is_some() {
             conditions.push("u.product = ?");
         }
+        // LIKE's wildcards in the search text match themselves.
+        let pattern = filter.serial_contains.as_ref().map(|text| {
+            let escaped = text
+                .replace('\\', "\\\\")
+                .replace('%', "\\%")
+                .replace('_', "\\_");
+            format!("%{escaped}%")
+        });
+        if pattern.is_some() {
+            conditions.push("u.serial LIKE ? ESCAPE '\\'");
+        }
         let filter_sql = if conditions.is_empty() {
             String::new()
         } else {
@@ -148,6 +163,10 @@ impl Store {
             rows = rows.bind(v);
         }
         if let Some(p) = &filter.product {
+            count = count.bind(p);
+            rows = rows.bind(p);
+        }
+        if let Some(p) = &pattern {
             count = count.bind(p);
             rows = rows.bind(p);
         }

@@ -10,6 +10,14 @@ use super::jobs::count_queued;
 use super::kinds::JobState;
 use super::verdicts::{refresh_unit, refresh_unit_row, StoredVerdict};
 
+/// A run's row with its calibration job and its result's columns (`r` the
+/// run).
+const RUN_COLUMNS: &str = "r.*, j.id AS job_id, res.run_id IS NOT NULL AS calibrated,
+    res.model_adequate, res.model_summary, res.verdict_detail,
+    res.verdict_product, res.verdict_revision, res.verdict_at FROM runs r
+    JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
+    LEFT JOIN results res ON res.run_id = r.id";
+
 /// A run's file as stored: what an upload writes and a run row reads back.
 #[derive(Clone, Debug, FromRow)]
 pub struct RunFile {
@@ -200,16 +208,28 @@ impl Store {
     }
 
     pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
-        Ok(sqlx::query_as(
-            "SELECT r.*, j.id AS job_id, res.run_id IS NOT NULL AS calibrated,
-                    res.model_adequate, res.model_summary, res.verdict_detail,
-                    res.verdict_product, res.verdict_revision, res.verdict_at FROM runs r
-             JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
-             LEFT JOIN results res ON res.run_id = r.id
-             WHERE r.id = ?",
+        Ok(
+            sqlx::query_as(&format!("SELECT {RUN_COLUMNS} WHERE r.id = ?"))
+                .bind(id)
+                .fetch_optional(&self.read)
+                .await?,
         )
-        .bind(id)
-        .fetch_optional(&self.read)
+    }
+
+    /// The latest runs a token uploaded, newest first (index
+    /// `runs_uploaded_by`): what a station's upload page lists.
+    pub async fn runs_uploaded_by(
+        &self,
+        token_id: &str,
+        limit: i64,
+    ) -> Result<Vec<RunRow>, StoreError> {
+        Ok(sqlx::query_as(&format!(
+            "SELECT {RUN_COLUMNS} WHERE r.uploaded_by = ?
+             ORDER BY r.uploaded_at DESC, r.id DESC LIMIT ?"
+        ))
+        .bind(token_id)
+        .bind(limit)
+        .fetch_all(&self.read)
         .await?)
     }
 

@@ -21,6 +21,8 @@ use sinscal::server::Application;
 use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::Store;
 
+pub mod pages;
+
 pub struct TestApp {
     pub base: String,
     pub admin: String,

@@ -1,0 +1,201 @@
+//! Workbench page benchmark (`cargo bench --bench workbench`): the unit
+//! page of a unit with 100 calibrated runs (history, repeatability table,
+//! 24 trend charts with a tolerance band, all inlined), and the units page
+//! of a line with 1000 units, each requested over loopback by a signed-in
+//! session, one request at a time: p50, p99 and max of the whole request
+//! (query, render, transfer) over 300 requests after 20 to warm up.
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use reqwest::header::{COOKIE, SET_COOKIE};
+use sinscal::accept::{LimitKind, ProductLimits};
+use sinscal::calib::ParameterEstimate;
+use sinscal::config::Config;
+use sinscal::model::PARAMETERS;
+use sinscal::server::Application;
+use sinscal::store::{NewRun, ProductTypeChange, RunFile, Store};
+
+const RUNS: usize = 100;
+const UNITS: usize = 1000;
+const WARMUP: usize = 20;
+const REQUESTS: usize = 300;
+
+fn new_run(serial: &str, k: usize) -> NewRun {
+    let id = uuid::Uuid::new_v4().to_string();
+    NewRun {
+        run_id: id.clone(),
+        job_id: uuid::Uuid::new_v4().to_string(),
+        unit_serial: serial.to_string(),
+        file: RunFile {
+            sha256: id.clone(),
+            size_bytes: 0,
+            records: 0,
+            format: "f64le".into(),
+            gzip: false,
+            blob_path: format!("runs/seed/{id}.bin"),
+            metadata: "{}".into(),
+        },
+        recorded_at: Some(1_700_000_000_000 + k as i64 * 86_400_000),
+        uploaded_at: 1_700_000_000_000,
+        max_attempts: 3,
+        uploaded_by: None,
+        product: Some("NAV-1".into()),
+    }
+}
+
+/// Values near the paper's truth with a run-to-run scatter, σ as a
+/// navigation-grade calibration reports them.
+fn parameters(k: usize) -> BTreeMap<String, ParameterEstimate> {
+    PARAMETERS
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let scatter = (((k * 37 + i * 11) % 23) as f64 - 11.0) / 11.0;
+            (
+                p.name.to_string(),
+                ParameterEstimate {
+                    value: 100.0 + i as f64 + scatter,
+                    sigma: 0.3,
+                    unit: p.unit.to_string(),
+                },
+            )
+        })
+        .collect()
+}
+
+async fn seed(store: &Store) {
+    let mut limits = ProductLimits::default();
+    for p in PARAMETERS.iter() {
+        limits.set(p.name, LimitKind::MaxAbsValue, 150.0).unwrap();
+        limits
+            .set(p.name, LimitKind::MaxRepeatability, 2.0)
+            .unwrap();
+    }
+    store
+        .create_product_type(ProductTypeChange {
+            name: "NAV-1",
+            description: Some("benchmark"),
+            limits: &limits,
+            by: "bench",
+        })
+        .await
+        .unwrap();
+    for k in 0..RUNS {
+        store
+            .seed_calibrated_run(&new_run("RLG-BENCH", k), &parameters(k))
+            .await
+            .unwrap();
+    }
+    for u in 0..UNITS {
+        let serial = format!("RLG-{u:05}");
+        store
+            .seed_calibrated_run(&new_run(&serial, 0), &parameters(u))
+            .await
+            .unwrap();
+    }
+}
+
+async fn sign_in(origin: &str, token: &str) -> (reqwest::Client, String) {
+    let http = reqwest::Client::builder()
+        .redirect(reqwest::redirect::Policy::none())
+        .build()
+        .unwrap();
+    let form = http.get(format!("{origin}/signin")).send().await.unwrap();
+    let cookie = form.headers()[SET_COOKIE].to_str().unwrap();
+    let cookie = cookie.split(';').next().unwrap().to_string();
+    let html = form.text().await.unwrap();
+    let at = html.find("name=\"form_token\" value=\"").unwrap() + 25;
+    let form_token: String = html[at..].chars().take_while(|c| *c != '"').collect();
+    let r = http
+        .post(format!("{origin}/signin"))
+        .header(COOKIE, cookie)
+        .form(&[("token", token), ("form_token", form_token.as_str())])
+        .send()
+        .await
+        .unwrap();
+    let session = r
+        .headers()
+        .get_all(SET_COOKIE)
+        .iter()
+        .filter_map(|v| v.to_str().ok())
+        .find(|v| v.starts_with("sinscal_session="))
+        .unwrap()
+        .split(';')
+        .next()
+        .unwrap()
+        .to_string();
+    (http, session)
+}
+
+fn quantile(sorted: &[Duration], q: f64) -> Duration {
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+async fn measure(http: &reqwest::Client, cookie: &str, url: &str, needle: &str) {
+    let mut times = Vec::with_capacity(REQUESTS);
+    let mut bytes = 0;
+    for i in 0..WARMUP + REQUESTS {
+        let start = Instant::now();
+        let r = http.get(url).header(COOKIE, cookie).send().await.unwrap();
+        assert_eq!(r.status(), reqwest::StatusCode::OK, "{url}");
+        let body = r.text().await.unwrap();
+        let took = start.elapsed();
+        assert!(body.contains(needle), "{url} lacks {needle}");
+        bytes = body.len();
+        if i >= WARMUP {
+            times.push(took);
+        }
+    }
+    times.sort();
+    println!(
+        "{url}: {} kB; p50 {:.1} ms, p99 {:.1} ms, max {:.1} ms over {REQUESTS} requests",
+        bytes / 1024,
+        quantile(&times, 0.5).as_secs_f64() * 1e3,
+        quantile(&times, 0.99).as_secs_f64() * 1e3,
+        times.last().unwrap().as_secs_f64() * 1e3,
+    );
+}
+
+#[tokio::main]
+async fn main() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = Config::new(dir.path());
+    cfg.bind = "127.0.0.1:0".into();
+    cfg.workers = 0;
+    let app = Application::build(cfg).await.unwrap();
+    let token = app.first_admin_token().unwrap().to_string();
+    let origin = format!("http://{}", app.addr());
+    let t = Instant::now();
+    seed(&app.store()).await;
+    println!(
+        "seeded {RUNS} runs of one unit and {UNITS} other units in {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(async move {
+        app.run_until_stopped(async {
+            let _ = stopped.await;
+        })
+        .await
+        .unwrap();
+    });
+    let (http, cookie) = sign_in(&origin, &token).await;
+    measure(
+        &http,
+        &cookie,
+        &format!("{origin}/units/RLG-BENCH"),
+        "id=\"repeatability\"",
+    )
+    .await;
+    measure(
+        &http,
+        &cookie,
+        &format!("{origin}/units/RLG-BENCH?columns=all"),
+        "id=\"trends\"",
+    )
+    .await;
+    measure(&http, &cookie, &format!("{origin}/"), "id=\"units\"").await;
+    let _ = stop.send(());
+    let _ = server.await;
+}

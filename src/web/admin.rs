@@ -1,0 +1,184 @@
+//! The admin page: tokens (issue, revoke) and product types (create,
+//! change, delete), through the API's own action functions. A new token's
+//! secret is shown once, in the answer to the form that made it.
+
+use axum::extract::{Path, State};
+use axum::response::{Html, Response};
+use axum::Form;
+use maud::{html, Markup};
+use serde::Deserialize;
+
+use super::error::PageError;
+use super::format;
+use super::layout::{self, action_button};
+use super::session::{see_other, CsrfForm, Session};
+use crate::api::auth::roles;
+use crate::api::products::{remove_product_type, save_product_type};
+use crate::api::tokens::{issue_token, revoke, NewTokenRequest, NewTokenView};
+use crate::api::{parse_id, AppState};
+use crate::store::Role;
+
+/// An example of the limits' JSON form, shown in an empty form.
+const LIMITS_EXAMPLE: &str = r#"{
+  "gyro_bias_x": {"max_abs_value": 0.05, "max_sigma": 0.002, "max_repeatability": 0.003},
+  "accel_bias_x": {"max_abs_value": 200, "max_sigma": 10}
+}"#;
+
+async fn render(
+    st: &AppState,
+    session: &Session,
+    issued: Option<&NewTokenView>,
+) -> Result<Html<String>, PageError> {
+    session.require(roles::ADMIN)?;
+    let tokens = st.store.list_tokens().await?;
+    let products = st.store.list_product_types().await?;
+    let body = html! {
+        h1 { "Admin" }
+        @if let Some(t) = issued { (issued_notice(t)) }
+        h2 { "Tokens" }
+        table #tokens {
+            tr { th { "Label" } th { "Role" } th { "Created" } th { "State" } th {} }
+            @for t in &tokens {
+                tr {
+                    td { (t.label.as_deref().unwrap_or("—")) } td { (t.role.as_str()) } td { (format::time(t.created_at)) }
+                    td { @if let Some(r) = t.revoked_at { "revoked " (format::time(r)) } @else { "live" } }
+                    td { @if t.revoked_at.is_none() && t.id != session.auth.token_id {
+                        (action_button(session, &format!("/admin/tokens/{}/revoke", t.id), "Revoke", "danger"))
+                    } }
+                }
+            }
+        }
+        h3 { "Issue a token" }
+        form.filters #new-token method="post" action="/admin/tokens" {
+            input type="hidden" name="csrf" value=(session.csrf());
+            label for="label" { "Label" }
+            input #label type="text" name="label" maxlength="200" placeholder="station 3, line A";
+            label for="role" { "Role" }
+            select #role name="role" {
+                option value="station" { "station (uploads)" }
+                option value="engineer" { "engineer (reads, diagnoses)" }
+                option value="admin" { "admin" }
+            }
+            button.primary type="submit" { "Issue" }
+        }
+        h2 { "Product types" }
+        table #products {
+            tr { th { "Name" } th { "Description" } th.num { "Revision" } th { "Changed" } th { "Limits" } th {} }
+            @for p in &products {
+                tr {
+                    td { (p.name) } td { (p.description.as_deref().unwrap_or("")) } td.num { (p.revision) } td { (format::time(p.updated_at)) }
+                    td { details { summary { "JSON" } pre { (p.limits) } } }
+                    td { (action_button(session, &format!("/admin/products/{}/delete", p.name), "Delete", "danger")) }
+                }
+            }
+        }
+        h3 { "Create or change a product type" }
+        p.muted { "Limits per canonical parameter, in its unit (SPEC §2): " code { "max_abs_value" } ", " code { "max_sigma" } ", " code { "max_repeatability" } ". Saving a name that exists makes its next revision; the verdicts it touches are judged again." }
+        form.stack #product method="post" action="/admin/products" {
+            input type="hidden" name="csrf" value=(session.csrf());
+            label for="name" { "Name" }
+            input #name type="text" name="name" required maxlength="64";
+            label for="description" { "Description" }
+            input #description type="text" name="description" maxlength="500";
+            label for="limits" { "Limits (JSON)" }
+            textarea #limits name="limits" required { (LIMITS_EXAMPLE) }
+            button.primary type="submit" { "Save" }
+        }
+    };
+    Ok(Html(
+        layout::page("Admin", Some(session), body).into_string(),
+    ))
+}
+
+fn issued_notice(t: &NewTokenView) -> Markup {
+    html! {
+        div.notice #issued {
+            p { "Token for " strong { (t.label.as_deref().unwrap_or("(no label)")) } " with role " strong { (t.role.as_str()) } ". It is shown this once; only its hash is kept." }
+            p.secret #issued-token { (t.token) }
+        }
+    }
+}
+
+pub async fn page(State(st): State<AppState>, session: Session) -> Result<Html<String>, PageError> {
+    render(&st, &session, None).await
+}
+
+#[derive(Deserialize)]
+pub struct TokenForm {
+    #[serde(default)]
+    csrf: String,
+    role: Role,
+    #[serde(default)]
+    label: String,
+}
+
+pub async fn create_token(
+    State(st): State<AppState>,
+    session: Session,
+    Form(form): Form<TokenForm>,
+) -> Result<Html<String>, PageError> {
+    session.check_csrf(&form.csrf)?;
+    session.require(roles::ADMIN)?;
+    let label = form.label.trim();
+    let issued = issue_token(
+        &st,
+        NewTokenRequest {
+            role: form.role,
+            label: (!label.is_empty()).then(|| label.to_string()),
+        },
+    )
+    .await?;
+    render(&st, &session, Some(&issued)).await
+}
+
+pub async fn revoke_token(
+    State(st): State<AppState>,
+    session: Session,
+    Path(id): Path<String>,
+    Form(form): Form<CsrfForm>,
+) -> Result<Response, PageError> {
+    session.check_csrf(&form.csrf)?;
+    session.require(roles::ADMIN)?;
+    let id = parse_id(id, "token")?;
+    revoke(&st, &session.auth, &id).await?;
+    Ok(see_other("/admin"))
+}
+
+#[derive(Deserialize)]
+pub struct ProductForm {
+    #[serde(default)]
+    csrf: String,
+    name: String,
+    #[serde(default)]
+    description: String,
+    limits: String,
+}
+
+pub async fn save_product(
+    State(st): State<AppState>,
+    session: Session,
+    Form(form): Form<ProductForm>,
+) -> Result<Response, PageError> {
+    session.check_csrf(&form.csrf)?;
+    session.require(roles::ADMIN)?;
+    let name = form.name.trim();
+    let limits: serde_json::Value = serde_json::from_str(&form.limits)
+        .map_err(|e| PageError::bad_request(format!("the limits are not JSON: {e}")))?;
+    let description = form.description.trim();
+    let description = (!description.is_empty()).then_some(description);
+    let exists = st.store.get_product_type(name).await?.is_some();
+    save_product_type(&st, &session.auth, name, description, &limits, !exists).await?;
+    Ok(see_other("/admin"))
+}
+
+pub async fn delete_product(
+    State(st): State<AppState>,
+    session: Session,
+    Path(name): Path<String>,
+    Form(form): Form<CsrfForm>,
+) -> Result<Response, PageError> {
+    session.check_csrf(&form.csrf)?;
+    session.require(roles::ADMIN)?;
+    remove_product_type(&st, &session.auth, &name).await?;
+    Ok(see_other("/admin"))
+}

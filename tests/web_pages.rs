@@ -1,0 +1,344 @@
+//! The workbench's pages over HTTP, as a browser without JavaScript uses
+//! them: sessions, CSRF, roles on every page and action, the upload form,
+//! and what each page shows of a calibrated run. (The same pages in a real
+//! Chromium are `web_browser`.)
+
+mod common;
+
+use std::time::Duration;
+
+use common::pages::{location, set_cookie};
+use common::{short_run, spawn_app, TestApp};
+use reqwest::StatusCode;
+use sinscal::io::data::DataFormat;
+
+const CALIBRATION: Duration = Duration::from_secs(240);
+
+/// Every page and action, with the roles that may use it. `{run}` and
+/// `{unit}` are filled in.
+const PAGES: &[(&str, &[&str])] = &[
+    ("/units/{unit}", &["engineer", "admin"]),
+    ("/runs/{run}", &["engineer", "admin"]),
+    ("/runs/{run}/certificate", &["engineer", "admin"]),
+    ("/runs/{run}/noise", &["engineer", "admin"]),
+    ("/runs/{run}/result.json", &["engineer", "admin"]),
+    ("/runs/{run}/result.csv", &["engineer", "admin"]),
+    ("/runs/{run}/compensation.json", &["engineer", "admin"]),
+    ("/runs/{run}/compensation.csv", &["engineer", "admin"]),
+    ("/upload", &["station", "admin"]),
+    ("/admin", &["admin"]),
+];
+
+/// Actions (form posts) and who may take them; each is refused for the
+/// others before it changes anything.
+const ACTIONS: &[(&str, &[&str])] = &[
+    ("/runs/{run}/diagnose", &["engineer", "admin"]),
+    ("/runs/{run}/calibrate", &["engineer", "admin"]),
+    ("/runs/{run}/delete", &["admin"]),
+    ("/admin/tokens", &["admin"]),
+    ("/admin/products", &["admin"]),
+];
+
+async fn calibrated_unit(app: &TestApp, serial: &str) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 3, DataFormat::Csv, serial);
+    app.upload_and_calibrate(serial, &run, CALIBRATION).await.0
+}
+
+fn fill(path: &str, run: &str, unit: &str) -> String {
+    path.replace("{run}", run).replace("{unit}", unit)
+}
+
+#[tokio::test]
+async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
+    let app = spawn_app(1).await;
+    let http = common::pages::no_redirects();
+    let origin = app.origin();
+    let run = uuid::Uuid::new_v4().to_string();
+    for (path, _) in PAGES {
+        let r = http
+            .get(format!("{origin}{}", fill(path, &run, "U1")))
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::SEE_OTHER, "{path}");
+        assert_eq!(location(&r), Some("/signin"), "{path}");
+    }
+    for (path, _) in ACTIONS {
+        let r = http
+            .post(format!("{origin}{}", fill(path, &run, "U1")))
+            .form(&[("csrf", "00")])
+            .send()
+            .await
+            .unwrap();
+        assert_eq!(r.status(), StatusCode::SEE_OTHER, "{path}");
+    }
+    // The root is the sign-in form itself.
+    let root = http.get(format!("{origin}/")).send().await.unwrap();
+    assert_eq!(root.status(), StatusCode::OK);
+    assert!(root.text().await.unwrap().contains("name=\"token\""));
+    // A wrong token, and a form without its cookie, are refused.
+    let bad = app.sign_in_attempt("sinscal_0000").await;
+    assert_eq!(bad, StatusCode::UNAUTHORIZED);
+    let forged = http
+        .post(format!("{origin}/signin"))
+        .form(&[("token", app.admin.as_str()), ("form_token", "abc")])
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(forged.status(), StatusCode::FORBIDDEN);
+    assert!(set_cookie(&forged, "sinscal_session").is_none());
+    app.stop().await;
+}
+
+impl TestApp {
+    /// Signs in with `token` through the form and returns the status.
+    async fn sign_in_attempt(&self, token: &str) -> StatusCode {
+        let http = common::pages::no_redirects();
+        let origin = self.origin();
+        let form = http.get(format!("{origin}/signin")).send().await.unwrap();
+        let cookie = set_cookie(&form, "sinscal_signin")
+            .unwrap()
+            .split(';')
+            .next()
+            .unwrap()
+            .to_string();
+        let html = form.text().await.unwrap();
+        let at = html.find("name=\"form_token\" value=\"").unwrap() + 25;
+        let ft: String = html[at..].chars().take_while(|c| *c != '"').collect();
+        http.post(format!("{origin}/signin"))
+            .header(reqwest::header::COOKIE, cookie)
+            .form(&[("token", token), ("form_token", ft.as_str())])
+            .send()
+            .await
+            .unwrap()
+            .status()
+    }
+}
+
+#[tokio::test]
+async fn the_session_cookie_is_http_only_strict_and_secure_behind_tls() {
+    let app = spawn_app(1).await;
+    let http = common::pages::no_redirects();
+    let origin = app.origin();
+    for (tls, secure) in [(false, false), (true, true)] {
+        let mut get = http.get(format!("{origin}/signin"));
+        if tls {
+            get = get.header("x-forwarded-proto", "https");
+        }
+        let form = get.send().await.unwrap();
+        let cookie = set_cookie(&form, "sinscal_signin").unwrap().to_string();
+        let html = form.text().await.unwrap();
+        let at = html.find("name=\"form_token\" value=\"").unwrap() + 25;
+        let ft: String = html[at..].chars().take_while(|c| *c != '"').collect();
+        let mut post = http
+            .post(format!("{origin}/signin"))
+            .header(reqwest::header::COOKIE, cookie.split(';').next().unwrap())
+            .form(&[("token", app.admin.as_str()), ("form_token", ft.as_str())]);
+        if tls {
+            post = post.header("x-forwarded-proto", "https");
+        }
+        let r = post.send().await.unwrap();
+        let session = set_cookie(&r, "sinscal_session").unwrap();
+        assert!(session.contains("HttpOnly"), "{session}");
+        assert!(session.contains("SameSite=Strict"), "{session}");
+        assert!(session.contains("Path=/"), "{session}");
+        assert_eq!(session.contains("Secure"), secure, "{session}");
+    }
+    // Signing out ends the session on the server, not only in the browser.
+    let s = app.sign_in(&app.admin).await;
+    assert_eq!(s.get("/admin").await.status(), StatusCode::OK);
+    assert_eq!(
+        s.post("/signout", &[]).await.status(),
+        StatusCode::SEE_OTHER
+    );
+    assert_eq!(s.get("/admin").await.status(), StatusCode::SEE_OTHER);
+    // Revoking a token ends the sessions opened with it.
+    let engineer = app.create_token("engineer").await;
+    let e = app.sign_in(&engineer).await;
+    assert_eq!(e.get("/units/U1").await.status(), StatusCode::NOT_FOUND);
+    let admin = app.sign_in(&app.admin).await;
+    let tokens: serde_json::Value = app.get_json("/tokens").await;
+    let id = tokens
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["role"] == "engineer")
+        .unwrap()["id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    let r = admin.post(&format!("/admin/tokens/{id}/revoke"), &[]).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    // (`/` would answer the sign-in form itself.)
+    assert_eq!(e.get("/units/U1").await.status(), StatusCode::SEE_OTHER);
+    app.stop().await;
+}
+
+#[tokio::test]
+async fn roles_hold_on_every_page_and_action_and_forms_need_their_csrf_token() {
+    let app = spawn_app(1).await;
+    let serial = "RLG-P1";
+    let run = calibrated_unit(&app, serial).await;
+    let mut sessions = Vec::new();
+    for role in ["station", "engineer", "admin"] {
+        let token = if role == "admin" {
+            app.admin.clone()
+        } else {
+            app.create_token(role).await
+        };
+        sessions.push((role, app.sign_in(&token).await));
+    }
+    for (path, allowed) in PAGES {
+        let path = fill(path, &run, serial);
+        for (role, s) in &sessions {
+            let status = s.get(&path).await.status();
+            if allowed.contains(role) {
+                assert_eq!(status, StatusCode::OK, "{role} {path}");
+            } else {
+                // A station reads only its own runs: another's run is 404.
+                assert!(
+                    status == StatusCode::FORBIDDEN || status == StatusCode::NOT_FOUND,
+                    "{role} {path}: {status}"
+                );
+            }
+        }
+    }
+    // The units page: engineers and admins; a station goes to its upload
+    // form.
+    for (role, s) in &sessions {
+        let r = s.get("/").await;
+        match *role {
+            "station" => assert_eq!(location(&r), Some("/upload")),
+            _ => assert_eq!(r.status(), StatusCode::OK, "{role}"),
+        }
+    }
+    let fields = [
+        ("role", "engineer"),
+        ("label", "from a test"),
+        ("name", "P-1"),
+        ("limits", "{}"),
+    ];
+    for (path, allowed) in ACTIONS {
+        let path = fill(path, &run, serial);
+        for (role, s) in &sessions {
+            // Without the token, or with another session's, nobody may.
+            let forged = s.post_exactly(&path, &fields).await;
+            assert_eq!(
+                forged.status(),
+                StatusCode::FORBIDDEN,
+                "{role} {path} without csrf"
+            );
+            let mut wrong = fields.to_vec();
+            wrong.push(("csrf", "0123456789abcdef"));
+            assert_eq!(
+                s.post_exactly(&path, &wrong).await.status(),
+                StatusCode::FORBIDDEN
+            );
+            // From another site, even with the token.
+            let mut with = fields.to_vec();
+            with.push(("csrf", s.csrf.as_str()));
+            let cross = s
+                .http
+                .post(format!("{}{path}", s.origin))
+                .header(reqwest::header::COOKIE, &s.cookie)
+                .header(reqwest::header::ORIGIN, "http://evil.example")
+                .form(&with)
+                .send()
+                .await
+                .unwrap();
+            assert_eq!(
+                cross.status(),
+                StatusCode::FORBIDDEN,
+                "{role} {path} cross-site"
+            );
+            if !allowed.contains(role) {
+                let r = s.post(&path, &fields).await;
+                assert!(
+                    r.status() == StatusCode::FORBIDDEN || r.status() == StatusCode::NOT_FOUND,
+                    "{role} {path}: {}",
+                    r.status()
+                );
+            }
+        }
+    }
+    // Nothing above changed anything: the run is still there with its
+    // single calibration job, no diagnosis, no new token or product type.
+    let r = app.get(&app.admin, &format!("/runs/{run}/diagnosis")).await;
+    assert_eq!(r.status(), StatusCode::NOT_FOUND);
+    assert_eq!(
+        app.get_json("/product-types")
+            .await
+            .as_array()
+            .unwrap()
+            .len(),
+        0
+    );
+    assert_eq!(app.get_json("/tokens").await.as_array().unwrap().len(), 3);
+    // The allowed actions, with their token, do act.
+    let admin = &sessions[2].1;
+    let r = admin.post(&format!("/runs/{run}/diagnose"), &[]).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let r = admin
+        .post(
+            "/admin/products",
+            &[
+                ("name", "P-1"),
+                ("description", ""),
+                ("limits", "{\"gyro_bias_x\": {\"max_abs_value\": 1}}"),
+            ],
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    assert_eq!(
+        app.get_json("/product-types")
+            .await
+            .as_array()
+            .unwrap()
+            .len(),
+        1
+    );
+    app.stop().await;
+}
+
+#[tokio::test]
+async fn the_upload_form_stores_a_run_and_refuses_bad_files_with_the_reason() {
+    let app = spawn_app(1).await;
+    let station = app.create_token("station").await;
+    let s = app.sign_in(&station).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 5, DataFormat::Csv, "RLG-UP");
+    let data = std::fs::read(&run.data).unwrap();
+    // Without the form's token the body is not read.
+    let r = s.upload("", &run.metadata, data.clone()).await;
+    assert_eq!(r.status(), StatusCode::FORBIDDEN);
+    // Broken data: refused, naming the line.
+    let mut broken = data.clone();
+    let cut = broken.len() / 2;
+    broken.truncate(cut);
+    broken.extend_from_slice(b"\n1.0,not-a-number\n");
+    let r = s.upload(&s.csrf, &run.metadata, broken).await;
+    assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(r.headers()[reqwest::header::CONTENT_TYPE]
+        .to_str()
+        .unwrap()
+        .starts_with("text/html"));
+    assert!(r.text().await.unwrap().contains("line"));
+    // The run itself: stored, and the browser is sent to its page.
+    let r = s.upload(&s.csrf, &run.metadata, data).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let page = location(&r).unwrap().to_string();
+    assert!(page.starts_with("/runs/"), "{page}");
+    let id = page.trim_start_matches("/runs/");
+    assert_eq!(app.get_run(id).await["unit_serial"], "RLG-UP");
+    // The station sees its run's page and its upload in its list.
+    assert_eq!(s.get(&page).await.status(), StatusCode::OK);
+    assert!(s
+        .get("/upload")
+        .await
+        .text()
+        .await
+        .unwrap()
+        .contains(&id[..8]));
+    app.stop().await;
+}
