@@ -14,8 +14,8 @@ use super::session::Session;
 use crate::api::auth::roles;
 use crate::api::error::ApiError;
 use crate::api::AppState;
-use crate::diagnose::plot::gap_svg;
 use crate::diagnose::{DiagnoseReport, DiagnoseStep};
+use crate::plot::{Band, Chart, Point, Series, Style};
 
 pub async fn page(
     State(st): State<AppState>,
@@ -48,7 +48,7 @@ pub async fn page(
             }
         }
         h2 { "The gap before and after" }
-        figure.wide #gap-plot { (PreEscaped(gap_svg(&report))) }
+        div #gap-plot { (PreEscaped(gap_charts(&report))) }
         h2 { "Steps" }
         @for (k, step) in report.steps.iter().enumerate() { (step_block(k + 1, step)) }
         @if !report.detectable.is_empty() {
@@ -74,7 +74,7 @@ pub async fn page(
 fn step_block(k: usize, s: &DiagnoseStep) -> Markup {
     html! {
         section.step {
-            h3 { "Step " (k) ": model " (s.model.join(" + ")) }
+            h3 { "Step " (k) ": model " @if s.model.is_empty() { "base-24" } @else { "base-24 + " (s.model.join(" + ")) } }
             p { "Gap " (format::sig(s.gap_rms * 1e3, 3)) " mm/s against a noise floor of " (format::sig(s.noise_floor_rms * 1e3, 3)) " mm/s (z = " (format::sig(s.z, 3)) ", "
                 @if s.significant { span.fail { "significant" } } @else { span.pass { "not significant" } } "). " (s.decision) }
             p.muted { "Where the misfit lies: " (s.localisation.summary) }
@@ -92,4 +92,36 @@ fn step_block(k: usize, s: &DiagnoseStep) -> Markup {
             }
         }
     }
+}
+
+/// The velocity gap at the nodes (the residual the model leaves, east,
+/// north, up) before and after the named effects, behind the ±noise-floor
+/// band: what the workflow set out to shrink.
+fn gap_charts(report: &DiagnoseReport) -> String {
+    let g = &report.series;
+    let floor_mm_s = report.noise_floor_rms * 1e3;
+    let mut svg = String::new();
+    for (title, values) in [
+        ("Gap with the base model", &g.before),
+        ("Gap with the named effects", &g.after),
+    ] {
+        let mut chart = Chart::new(title, "time (s)", "velocity gap (mm/s)");
+        chart.width = 900.0;
+        chart.height = 280.0;
+        chart
+            .bands
+            .push(Band::new("± noise floor", -floor_mm_s, floor_mm_s));
+        for (axis, name) in ["east", "north", "up"].iter().enumerate() {
+            let points =
+                g.t.iter()
+                    .zip(values.iter())
+                    .map(|(&t, v)| Point::new(t, v[axis] * 1e3))
+                    .collect();
+            chart.series.push(Series::new(*name, Style::Line, points));
+        }
+        svg.push_str("<figure>");
+        chart.write_svg(&mut svg);
+        svg.push_str("</figure>");
+    }
+    svg
 }

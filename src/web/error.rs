@@ -69,6 +69,7 @@ impl IntoResponse for PageError {
                             meta charset="utf-8";
                             title { (title) " · sinscal" }
                             link rel="stylesheet" href="/static/style.css";
+                            link rel="icon" href="data:,";
                         }
                         body {
                             main {

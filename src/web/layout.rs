@@ -19,6 +19,8 @@ pub fn page(title: &str, session: Option<&Session>, body: Markup) -> Markup {
                 meta name="htmx-config" content=r#"{"includeIndicatorStyles":false}"#;
                 title { (title) " · sinscal" }
                 link rel="stylesheet" href="/static/style.css";
+                // No icon: a browser would otherwise ask for /favicon.ico.
+                link rel="icon" href="data:,";
                 script src="/static/htmx.min.js" defer {}
             }
             body {

@@ -130,7 +130,7 @@ fn history(serial: &str, runs: &[UnitRun], q: &UnitQuery) -> Markup {
                     }
                 }
             }
-            @if runs.len() >= 2 { button type="submit" { "Compare A and B" } }
+            @if runs.len() >= 2 { button #compare-runs type="submit" { "Compare A and B" } }
         }
     }
 }

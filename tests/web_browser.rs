@@ -1,0 +1,272 @@
+//! The workbench in a real headless Chromium, from sign-in to a rejected
+//! unit: a run uploaded through the form and followed live to its result,
+//! the run page's 24 rows and convergence plots, a unit's trends and
+//! repeatability after three runs, the diagnosis, noise, certificate and
+//! admin pages, and a station kept out of admin. No page logs a console
+//! error. Screenshots of every page go to `target/screenshots/`.
+
+mod common;
+
+use std::time::Duration;
+
+use common::browser::{screenshot_path, Browser};
+use common::{short_run, spawn_app, SimRun, TestApp};
+use reqwest::StatusCode;
+use serde_json::json;
+use sinscal::io::data::DataFormat;
+
+const LOAD: Duration = Duration::from_secs(10);
+const CALIBRATION: Duration = Duration::from_secs(240);
+
+/// Writes `run`'s metadata next to its data, with `product` named, for the
+/// upload form's file inputs.
+fn with_product(run: &SimRun, product: &str) -> (std::path::PathBuf, Vec<u8>) {
+    let mut meta: serde_json::Value = serde_json::from_slice(&run.metadata).unwrap();
+    meta["product"] = json!(product);
+    let bytes = serde_json::to_vec(&meta).unwrap();
+    let path = run.data.with_file_name("run-with-product.json");
+    std::fs::write(&path, &bytes).unwrap();
+    (path, bytes)
+}
+
+async fn product_type(app: &TestApp, name: &str, limits: serde_json::Value) {
+    let r = app
+        .http
+        .post(app.url("/product-types"))
+        .bearer_auth(&app.admin)
+        .json(&json!({"name": name, "limits": limits}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::CREATED);
+}
+
+/// Opens `path`, checks the page logged no console error, and saves a
+/// full-page screenshot as `name`.
+async fn visit(b: &Browser, origin: &str, path: &str, name: &str) {
+    b.goto(&format!("{origin}{path}")).await;
+    b.wait_for("main", LOAD).await;
+    shoot(b, name).await;
+}
+
+async fn shoot(b: &Browser, name: &str) {
+    let errors = b.console_errors().await;
+    assert!(errors.is_empty(), "{name}: console errors {errors:?}");
+    b.full_page_screenshot(screenshot_path(&format!("workbench-{name}.png")))
+        .await;
+}
+
+async fn sign_in(b: &Browser, origin: &str, token: &str) {
+    b.goto(&format!("{origin}/")).await;
+    b.wait_for("input#token", LOAD).await.send_keys(token).await;
+    b.find("form[action='/signin'] button").await.click().await;
+    b.wait_for("nav.top", LOAD).await;
+}
+
+#[tokio::test]
+async fn the_workbench_in_chromium() {
+    let app = spawn_app(2).await;
+    let origin = app.origin();
+    product_type(
+        &app,
+        "NAV-1",
+        json!({"gyro_bias_x": {"max_abs_value": 1.0, "max_sigma": 0.1}}),
+    )
+    .await;
+    // Tight enough that the paper's 0.05 deg/h bias fails it.
+    product_type(
+        &app,
+        "NAV-TIGHT",
+        json!({"gyro_bias_x": {"max_abs_value": 0.001}}),
+    )
+    .await;
+    let dir = tempfile::tempdir().unwrap();
+    let runs: Vec<SimRun> = (0..3)
+        .map(|k| {
+            let d = dir.path().join(format!("a{k}"));
+            std::fs::create_dir_all(&d).unwrap();
+            short_run(&d, 11 + k, DataFormat::Csv, "RLG-A")
+        })
+        .collect();
+
+    let b = Browser::start().await;
+    // Without a session the root is the sign-in page.
+    visit(&b, &origin, "/", "signin").await;
+    sign_in(&b, &origin, &app.admin).await;
+    let session = b.cookie("sinscal_session").await.expect("a session cookie");
+    assert!(session.http_only);
+    assert_eq!(session.same_site.as_deref(), Some("Strict"));
+
+    // Upload through the form and watch the job finish on the run page:
+    // the live block reloads the page when the calibration settles.
+    let (meta_path, _) = with_product(&runs[0], "NAV-1");
+    visit(&b, &origin, "/upload", "upload").await;
+    b.find("input#metadata").await.upload(&meta_path).await;
+    b.find("input#data").await.upload(&runs[0].data).await;
+    b.find("form#upload button").await.click().await;
+    b.wait_for("section#progress", LOAD).await;
+    assert!(b.current_url().await.contains("/runs/"));
+    let run_id = b
+        .current_url()
+        .await
+        .rsplit('/')
+        .next()
+        .unwrap()
+        .to_string();
+    b.wait_for("table#parameters", CALIBRATION).await;
+    assert_eq!(b.find_all("table#parameters tbody tr").await.len(), 24);
+    assert_eq!(b.find_all("#convergence svg").await.len(), 7);
+    assert!(b.find("#verdict").await.text().await.contains("accepted"));
+    shoot(&b, "run").await;
+
+    // Two more runs of the unit (through the API), then its page.
+    for run in &runs[1..] {
+        let (_, meta) = with_product(run, "NAV-1");
+        let r = app
+            .upload_multipart(
+                &app.admin,
+                "RLG-A",
+                &meta,
+                std::fs::read(&run.data).unwrap(),
+            )
+            .await;
+        assert_eq!(r.status(), StatusCode::ACCEPTED);
+        let up: serde_json::Value = r.json().await.unwrap();
+        let job = app
+            .wait_job(up["job_id"].as_str().unwrap(), CALIBRATION)
+            .await;
+        assert_eq!(job["state"], "succeeded");
+    }
+    visit(&b, &origin, "/units/RLG-A", "unit").await;
+    assert_eq!(b.find_all("#trends svg").await.len(), 24);
+    assert_eq!(b.find_all("table#repeatability tbody tr").await.len(), 24);
+    // Three run columns, then mean, std, range, largest change, limit.
+    let header = b.find_all("table#repeatability thead th").await.len();
+    assert_eq!(header, 2 + 3 + 6);
+    assert_eq!(b.find_all("table#history tbody tr").await.len(), 3);
+    // Compare the first and last run.
+    let radios_a = b.find_all("input[name='a']").await;
+    let radios_b = b.find_all("input[name='b']").await;
+    radios_a[0].click().await;
+    radios_b[2].click().await;
+    b.find("button#compare-runs").await.click().await;
+    b.wait_for("table.compare", LOAD).await;
+    assert_eq!(b.find_all("table.compare tbody tr").await.len(), 24);
+    shoot(&b, "unit-compare").await;
+
+    // The units page, filtered.
+    visit(&b, &origin, "/?verdict=accepted", "units").await;
+    assert!(b.find("table#units").await.text().await.contains("RLG-A"));
+
+    // The run's other pages.
+    visit(
+        &b,
+        &origin,
+        &format!("/runs/{run_id}/certificate"),
+        "certificate",
+    )
+    .await;
+    let facts = b.find("#certificate-facts").await.text().await;
+    assert!(facts.contains("RLG-A") && facts.contains("NAV-1") && facts.contains("sinscal "));
+    visit(&b, &origin, &format!("/runs/{run_id}/noise"), "noise").await;
+    assert_eq!(
+        b.find_all("#gyro-allan svg, #accel-allan svg").await.len(),
+        2
+    );
+    assert_eq!(b.find_all("table#gyro-noise tr").await.len(), 4);
+
+    // Diagnose from the run page's button and follow it.
+    visit(
+        &b,
+        &origin,
+        &format!("/runs/{run_id}"),
+        "run-before-diagnosis",
+    )
+    .await;
+    b.find(&format!("form[action='/runs/{run_id}/diagnose'] button"))
+        .await
+        .click()
+        .await;
+    b.wait_for_text("section#progress", "diagnosis", LOAD).await;
+    b.wait_for(&format!("a[href='/runs/{run_id}/diagnosis']"), CALIBRATION)
+        .await;
+    b.wait_for_text(
+        &format!("a[href='/runs/{run_id}/diagnosis']"),
+        "succeeded",
+        CALIBRATION,
+    )
+    .await;
+    visit(
+        &b,
+        &origin,
+        &format!("/runs/{run_id}/diagnosis"),
+        "diagnosis",
+    )
+    .await;
+    assert!(b
+        .find("#diagnosis-verdict")
+        .await
+        .text()
+        .await
+        .contains("Verdict"));
+    assert!(!b.find_all("#gap-plot svg").await.is_empty());
+
+    // A rejected unit shows what failed.
+    let rdir = dir.path().join("b");
+    std::fs::create_dir_all(&rdir).unwrap();
+    let rejected = short_run(&rdir, 21, DataFormat::Csv, "RLG-B");
+    let (_, meta) = with_product(&rejected, "NAV-TIGHT");
+    let r = app
+        .upload_multipart(
+            &app.admin,
+            "RLG-B",
+            &meta,
+            std::fs::read(&rejected.data).unwrap(),
+        )
+        .await;
+    let up: serde_json::Value = r.json().await.unwrap();
+    app.wait_job(up["job_id"].as_str().unwrap(), CALIBRATION)
+        .await;
+    visit(&b, &origin, "/?verdict=rejected", "units-rejected").await;
+    assert!(b.find("table#units").await.text().await.contains("RLG-B"));
+    b.find("table#units a[href^='/runs/']").await.click().await;
+    b.wait_for("#verdict", LOAD).await;
+    let verdict = b.find("#verdict").await.text().await;
+    assert!(
+        verdict.contains("rejected") && verdict.contains("gyro_bias_x"),
+        "{verdict}"
+    );
+    assert!(!b.find_all("table#parameters tr.fail").await.is_empty());
+    shoot(&b, "run-rejected").await;
+
+    // Admin: issue a station token through the form.
+    visit(&b, &origin, "/admin", "admin").await;
+    b.find("input#label")
+        .await
+        .send_keys("line A station 1")
+        .await;
+    b.find("select#role").await.select_by_value("station").await;
+    b.find("form#new-token button").await.click().await;
+    let station = b.wait_for("#issued-token", LOAD).await.text().await;
+    assert!(station.starts_with("sinscal_"));
+    shoot(&b, "admin-token-issued").await;
+
+    // Sign out, sign in as the station: upload yes, admin and units no.
+    b.find("nav.top form button").await.click().await;
+    b.wait_for("input#token", LOAD).await;
+    sign_in(&b, &origin, &station).await;
+    assert!(b.current_url().await.ends_with("/upload"));
+    assert!(b.find_all("nav.top a[href='/admin']").await.is_empty());
+    b.goto(&format!("{origin}/admin")).await;
+    assert!(b.wait_for("h1", LOAD).await.text().await.contains("403"));
+    // The refusal itself is the one console entry (the document's 403).
+    let errors = b.console_errors().await;
+    assert!(errors.iter().all(|e| e.contains("403")), "{errors:?}");
+    b.full_page_screenshot(screenshot_path("workbench-station-admin-refused.png"))
+        .await;
+    b.goto(&format!("{origin}/units/RLG-A")).await;
+    assert!(b.wait_for("h1", LOAD).await.text().await.contains("403"));
+    let _ = b.console_errors().await;
+    b.quit().await;
+    app.stop().await;
+}
