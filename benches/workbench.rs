@@ -1,9 +1,11 @@
 //! Workbench page benchmark (`cargo bench --bench workbench`): the unit
 //! page of a unit with 100 calibrated runs (history, repeatability table,
-//! 24 trend charts with a tolerance band, all inlined), and the units page
-//! of a line with 1000 units, each requested over loopback by a signed-in
-//! session, one request at a time: p50, p99 and max of the whole request
-//! (query, render, transfer) over 300 requests after 20 to warm up.
+//! 24 trend charts with a tolerance band, all inlined), the units page of
+//! a line with 1000 units, and the run page of a real calibration of the
+//! paper's 9+9 scheme (7 convergence charts of its 500-point history, the
+//! residual chart), each requested over loopback by a signed-in session,
+//! one request at a time: p50, p99 and max of the whole request (query,
+//! render, transfer) over 300 requests after 20 to warm up.
 
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
@@ -12,8 +14,13 @@ use reqwest::header::{COOKIE, SET_COOKIE};
 use sinscal::accept::{LimitKind, ProductLimits};
 use sinscal::calib::ParameterEstimate;
 use sinscal::config::Config;
-use sinscal::model::PARAMETERS;
+use sinscal::io::data::DataFormat;
+use sinscal::io::run::write_simulated_run;
+use sinscal::jobs::JobRunner;
+use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal::nav::Site;
 use sinscal::server::Application;
+use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::{NewRun, ProductTypeChange, RunFile, Store};
 
 const RUNS: usize = 100;
@@ -157,6 +164,50 @@ async fn measure(http: &reqwest::Client, cookie: &str, url: &str, needle: &str) 
     );
 }
 
+/// Simulates the paper's 9+9 scheme (2 min dwells), uploads it and runs
+/// its calibration job; the run's id.
+async fn calibrated_run(
+    addr: std::net::SocketAddr,
+    runner: &JobRunner,
+    token: &str,
+    dir: &std::path::Path,
+) -> String {
+    let cfg = SimConfig {
+        site: Site::REFERENCE,
+        sample_rate_hz: 100.0,
+        scheme: Scheme::builtin("ten-position-9+9", 120.0).unwrap(),
+        params: ErrorParameters::paper(),
+        effects: Effects::none(),
+        noise: Noise {
+            gyro_arw_deg_rt_h: 0.0003,
+            accel_vrw_ug_rt_hz: 5.0,
+        },
+        initial_attitude_error_deg: [0.1, -0.1, 2.0],
+        seed: 1,
+    };
+    let files = write_simulated_run(&cfg, dir, DataFormat::F64le, false, "RLG-RUN").unwrap();
+    let form = reqwest::multipart::Form::new()
+        .part(
+            "metadata",
+            reqwest::multipart::Part::bytes(std::fs::read(&files.metadata).unwrap()),
+        )
+        .part(
+            "data",
+            reqwest::multipart::Part::bytes(std::fs::read(&files.data).unwrap()),
+        );
+    let r = reqwest::Client::new()
+        .post(format!("http://{addr}/api/v1/units/RLG-RUN/runs"))
+        .bearer_auth(token)
+        .multipart(form)
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), reqwest::StatusCode::ACCEPTED);
+    let up: serde_json::Value = r.json().await.unwrap();
+    runner.try_run_next_job(0).await.unwrap();
+    up["run_id"].as_str().unwrap().to_string()
+}
+
 #[tokio::main]
 async fn main() {
     let dir = tempfile::tempdir().unwrap();
@@ -166,6 +217,7 @@ async fn main() {
     let app = Application::build(cfg).await.unwrap();
     let token = app.first_admin_token().unwrap().to_string();
     let origin = format!("http://{}", app.addr());
+    let (addr, runner) = (app.addr(), app.runner());
     let t = Instant::now();
     seed(&app.store()).await;
     println!(
@@ -180,6 +232,7 @@ async fn main() {
         .await
         .unwrap();
     });
+    let run_id = calibrated_run(addr, &runner, &token, dir.path()).await;
     let (http, cookie) = sign_in(&origin, &token).await;
     measure(
         &http,
@@ -196,6 +249,13 @@ async fn main() {
     )
     .await;
     measure(&http, &cookie, &format!("{origin}/"), "id=\"units\"").await;
+    measure(
+        &http,
+        &cookie,
+        &format!("{origin}/runs/{run_id}"),
+        "id=\"convergence\"",
+    )
+    .await;
     let _ = stop.send(());
     let _ = server.await;
 }

@@ -233,3 +233,53 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     );
     assert_eq!(store.get_job(&job.id).await.unwrap().unwrap().attempts, 1);
 }
+
+/// `POST /runs/{id}/calibrate` queues the run's calibration again: the old
+/// result is gone at once (the unit's history without it), the same job
+/// runs again with its attempts still counting, and the new result takes
+/// its place; a second request while it waits is 409, and stations may not
+/// ask.
+#[tokio::test]
+async fn a_run_calibrated_again_replaces_its_result() {
+    let app = spawn_app(0).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 8, DataFormat::Csv, "RLG-RE");
+    let up: Value = app.upload_run("RLG-RE", &run).await.json().await.unwrap();
+    let run_id = up["run_id"].as_str().unwrap().to_string();
+    app.runner.try_run_next_job(0).await.unwrap();
+    let first = app.get_job(up["job_id"].as_str().unwrap()).await;
+    assert_eq!(first["state"], "succeeded");
+    let before = app.get_result(&run_id).await;
+    let calibrate = |token: String| {
+        let req = app
+            .http
+            .post(app.url(&format!("/runs/{run_id}/calibrate")))
+            .bearer_auth(token);
+        async move { req.send().await.unwrap() }
+    };
+    let station = app.create_token("station").await;
+    assert_eq!(calibrate(station).await.status(), StatusCode::FORBIDDEN);
+    let r = calibrate(app.admin.clone()).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let job: Value = r.json().await.unwrap();
+    assert_eq!(job["id"], first["id"], "the run's one calibration job");
+    assert_eq!(job["state"], "queued");
+    let r = app.get(&app.admin, &format!("/runs/{run_id}/result")).await;
+    assert_eq!(r.status(), StatusCode::CONFLICT, "the old result is gone");
+    assert_eq!(app.history("RLG-RE", "").await["total"], 0);
+    assert_eq!(
+        calibrate(app.admin.clone()).await.status(),
+        StatusCode::CONFLICT
+    );
+    app.runner.try_run_next_job(0).await.unwrap();
+    let done = app.get_job(job["id"].as_str().unwrap()).await;
+    assert_eq!(done["state"], "succeeded");
+    assert!(done["attempts"].as_i64().unwrap() > first["attempts"].as_i64().unwrap());
+    let after = app.get_result(&run_id).await;
+    assert_eq!(
+        after["parameters"], before["parameters"],
+        "same data, same estimate"
+    );
+    assert_eq!(app.history("RLG-RE", "").await["total"], 1);
+    app.stop().await;
+}
