@@ -18,7 +18,9 @@ const CALIBRATION: Duration = Duration::from_secs(240);
 /// `{unit}` are filled in.
 const PAGES: &[(&str, &[&str])] = &[
     ("/units/{unit}", &["engineer", "admin"]),
+    // (A station reads its own runs only; this one is the admin's.)
     ("/runs/{run}", &["engineer", "admin"]),
+    ("/runs/{run}/progress", &["engineer", "admin"]),
     ("/runs/{run}/certificate", &["engineer", "admin"]),
     ("/runs/{run}/noise", &["engineer", "admin"]),
     ("/runs/{run}/result.json", &["engineer", "admin"]),
