@@ -5,9 +5,10 @@
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::{EstimateOptions, NoiseDensity};
 use std::sync::atomic::AtomicBool;
+use std::sync::OnceLock;
 
 use sinscal::design::detect::DETECT_MARGIN;
-use sinscal::design::{design, Axes, DesignRequest, DetectGoal, Target};
+use sinscal::design::{design, Axes, Design, DesignRequest, DetectGoal, Target};
 use sinscal::diagnose::thresholds_before_data;
 use sinscal::nav::Site;
 
@@ -22,10 +23,16 @@ fn tactical() -> DesignRequest {
     }
 }
 
-/// The design's prediction against plan's filter on the same scheme, and
-/// the design against the built-in schemes' needs.
-fn check(req: &DesignRequest) {
-    let d = design(req).unwrap();
+/// The tactical design, made once for the tests that read it (a design is
+/// tens of seconds of search).
+fn tactical_design() -> &'static Design {
+    static DESIGN: OnceLock<Design> = OnceLock::new();
+    DESIGN.get_or_init(|| design(&tactical()).unwrap())
+}
+
+/// The design `d` made for `req`: its prediction against plan's filter on
+/// the same scheme, and the design against the built-in schemes' needs.
+fn check(req: &DesignRequest, d: &Design) {
     eprint!("{}", d.summary());
     for (name, p) in &d.parameters {
         assert!(p.ratio <= 1.0, "{name}: ratio {}", p.ratio);
@@ -59,7 +66,7 @@ fn check(req: &DesignRequest) {
 
 #[test]
 fn a_body_axis_design_meets_its_goal_and_beats_the_built_in_schemes() {
-    check(&tactical());
+    check(&tactical(), tactical_design());
 }
 
 #[test]
@@ -71,7 +78,7 @@ fn a_navigation_axis_table_gets_a_navigation_axis_scheme() {
     let d = design(&req).unwrap();
     let json = serde_json::to_string(&d.scheme).unwrap();
     assert!(!json.contains("\"body\""), "{json}");
-    check(&req);
+    check(&req, &d);
 }
 
 #[test]
@@ -120,7 +127,7 @@ fn an_effect_to_detect_changes_the_scheme_until_the_workflow_names_it() {
         .expect("the workflow reports the delay")
         .size
     };
-    let plain = design(&tactical()).unwrap();
+    let plain = tactical_design();
     let before = delay_threshold_ms(&plain.scheme);
     eprintln!("without the goal: a delay named from {before:.4} ms");
     assert!(
