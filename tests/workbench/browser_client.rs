@@ -3,16 +3,14 @@
 //! an HttpOnly cookie, screenshots, and that no browser process outlives
 //! the client. One browser for all of it: Chromium's start is the cost.
 
-mod common;
-
 use std::time::Duration;
 
+use crate::common::browser::{self, Browser};
 use axum::extract::Multipart;
 use axum::http::header;
 use axum::response::{Html, IntoResponse};
 use axum::routing::{get, post};
 use axum::Router;
-use common::browser::{self, Browser};
 
 const WAIT: Duration = Duration::from_secs(10);
 

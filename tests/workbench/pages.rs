@@ -1,14 +1,12 @@
 //! The workbench's pages over HTTP, as a browser without JavaScript uses
 //! them: sessions, CSRF, roles on every page and action, the upload form,
 //! and what each page shows of a calibrated run. (The same pages in a real
-//! Chromium are `web_browser`.)
-
-mod common;
+//! Chromium are `in_chromium`.)
 
 use std::time::Duration;
 
-use common::pages::{location, set_cookie};
-use common::{short_run, spawn_app, TestApp};
+use crate::common::pages::{location, set_cookie};
+use crate::common::{short_run, spawn_app, TestApp};
 use reqwest::StatusCode;
 use sinscal::io::data::DataFormat;
 
@@ -54,7 +52,7 @@ fn fill(path: &str, run: &str, unit: &str) -> String {
 #[tokio::test]
 async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
     let app = spawn_app(1).await;
-    let http = common::pages::no_redirects();
+    let http = crate::common::pages::no_redirects();
     let origin = app.origin();
     let run = uuid::Uuid::new_v4().to_string();
     for (path, _) in PAGES {
@@ -96,7 +94,7 @@ async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
 impl TestApp {
     /// Signs in with `token` through the form and returns the status.
     async fn sign_in_attempt(&self, token: &str) -> StatusCode {
-        let http = common::pages::no_redirects();
+        let http = crate::common::pages::no_redirects();
         let origin = self.origin();
         let form = http.get(format!("{origin}/signin")).send().await.unwrap();
         let cookie = set_cookie(&form, "sinscal_signin")
@@ -121,7 +119,7 @@ impl TestApp {
 #[tokio::test]
 async fn the_session_cookie_is_http_only_strict_and_secure_behind_tls() {
     let app = spawn_app(1).await;
-    let http = common::pages::no_redirects();
+    let http = crate::common::pages::no_redirects();
     let origin = app.origin();
     for (tls, secure) in [(false, false), (true, true)] {
         let mut get = http.get(format!("{origin}/signin"));

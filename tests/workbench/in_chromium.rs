@@ -5,12 +5,10 @@
 //! admin pages, and a station kept out of admin. No page logs a console
 //! error. Screenshots of every page go to `target/screenshots/`.
 
-mod common;
-
 use std::time::Duration;
 
-use common::browser::{screenshot_path, Browser};
-use common::{short_run, spawn_app, SimRun, TestApp};
+use crate::common::browser::{screenshot_path, Browser};
+use crate::common::{short_run, spawn_app, SimRun, TestApp};
 use reqwest::StatusCode;
 use serde_json::json;
 use sinscal::io::data::DataFormat;

@@ -1,0 +1,12 @@
+//! The workbench (the pages at the server's root), one test binary: the
+//! pages over HTTP as a browser without JavaScript uses them (`pages`),
+//! the same pages in a real headless Chromium (`in_chromium`), and the
+//! WebDriver client those drive Chromium with, against a page server of
+//! its own (`browser_client`).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod browser_client;
+mod in_chromium;
+mod pages;
