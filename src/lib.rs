@@ -32,6 +32,7 @@ pub mod runfiles;
 pub mod server;
 pub mod sim;
 pub mod store;
+pub mod thermal;
 pub mod web;
 
 pub use record::Record;

@@ -2,6 +2,7 @@
 
 mod cli_compensate;
 mod cli_noise;
+mod cli_thermal;
 
 use std::path::PathBuf;
 
@@ -60,6 +61,10 @@ enum Command {
     Compensate(cli_compensate::CompensateArgs),
     /// Write a result's compensation file (JSON, or CSV by the name).
     Export(cli_compensate::ExportArgs),
+    /// A unit's thermal model from results of runs soaked at several
+    /// temperatures: per parameter the value at 25 °C, linear and (where
+    /// significant) quadratic coefficients, and whether the runs fit.
+    Thermal(cli_thermal::ThermalArgs),
     /// Run the calibration server (HTTP API under /api/v1).
     Serve(sinscal::config::ServeArgs),
     /// Manage the server's bearer tokens.
@@ -575,6 +580,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             cli_compensate::run_compensate(&a, &read_metadata(&a.run, a.meta.as_deref())?)
         }
         Command::Export(a) => cli_compensate::run_export(&a),
+        Command::Thermal(a) => cli_thermal::run_thermal(&a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Token(TokenCommand::Create {
             role,

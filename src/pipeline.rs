@@ -5,6 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
+use crate::calib::result::RunTemperature;
 use crate::calib::{
     self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo,
 };
@@ -69,7 +70,10 @@ pub fn calibrate_file(
     cancel: &AtomicBool,
 ) -> Result<CalibrationResult, CalibError> {
     let (source, run) = FileSource::of_run(data, meta);
-    calib::estimate(&source, &run, opts, progress, cancel)
+    let mut result = calib::estimate(&source, &run, opts, progress, cancel)?;
+    // A soaked run states its temperature once, in its metadata.
+    result.temperature = meta.temperature_c.map(RunTemperature::soaked);
+    Ok(result)
 }
 
 /// Diagnoses the run in `data` described by `meta`: the one

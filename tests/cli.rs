@@ -387,3 +387,74 @@ fn compensate_and_export_write_files_the_readers_take() {
             .arg(&out),
     );
 }
+
+/// `sinscal thermal` over results that carry their soak temperature (one
+/// given as `RESULT.json@T` instead): the model written, a linear term
+/// recovered exactly from exact values, the range and the prediction
+/// printed; a result with no temperature refused with the way out named.
+#[test]
+fn thermal_fits_results_at_their_temperatures() {
+    use sinscal::calib::result::RunTemperature;
+    use sinscal::calib::{CalibrationResult, ParameterEstimate};
+    use sinscal::model::PARAMETERS;
+    let dir = tempfile::tempdir().unwrap();
+    let mut args = Vec::new();
+    for (k, t) in [0.0, 25.0, 50.0].into_iter().enumerate() {
+        let result = CalibrationResult {
+            parameters: PARAMETERS
+                .iter()
+                .map(|p| {
+                    let e = ParameterEstimate {
+                        value: 10.0 + 0.1 * (t - 25.0),
+                        sigma: 0.01,
+                        unit: p.unit.to_string(),
+                    };
+                    (p.name.to_string(), e)
+                })
+                .collect(),
+            temperature: (k < 2).then(|| RunTemperature::soaked(t)),
+            ..CalibrationResult::default()
+        };
+        let path = dir.path().join(format!("r{k}.json"));
+        std::fs::write(&path, serde_json::to_vec(&result).unwrap()).unwrap();
+        args.push(path.display().to_string());
+    }
+    let out = dir.path().join("model.json");
+    // The third carries no temperature.
+    let refused = sinscal()
+        .arg("thermal")
+        .args(&args)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("carries no temperature") && err.contains("@T"),
+        "{err}"
+    );
+    args[2].push_str("@50");
+    let text = stdout_of(
+        sinscal()
+            .arg("thermal")
+            .args(&args)
+            .args(["--at", "40", "--out"])
+            .arg(&out),
+    );
+    assert!(
+        text.contains("fitted over 0.0–50.0 °C from 3 runs"),
+        "{text}"
+    );
+    assert!(text.contains("at 40 °C:"), "{text}");
+    let model: serde_json::Value = serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap();
+    let p = &model["parameters"]["gyro_bias_x"];
+    assert!((p["value"].as_f64().unwrap() - 10.0).abs() < 1e-9, "{p}");
+    assert!(
+        (p["linear"]["value"].as_f64().unwrap() - 0.1).abs() < 1e-9,
+        "{p}"
+    );
+    assert!(p.get("quadratic").is_none(), "{p}");
+    assert_eq!(model["range_c"], serde_json::json!([0.0, 50.0]));
+    assert_eq!(model["check"]["adequate"], true);
+}

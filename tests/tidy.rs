@@ -434,6 +434,7 @@ fn the_stated_absences_hold() {
         "io",
         "noise",
         "compensation",
+        "thermal",
     ];
     let server_side = [
         "store", "jobs", "api", "web", "server", "config", "metrics", "runfiles",

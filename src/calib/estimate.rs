@@ -269,6 +269,8 @@ pub(crate) fn estimate_scanned(
         convergence: last.history,
         cross_check,
         model_check: last.model_check,
+        // The run's metadata states it; the caller that read it fills it.
+        temperature: None,
     })
 }
 

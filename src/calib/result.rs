@@ -74,6 +74,29 @@ pub struct CrossCheck {
     pub flagged: Vec<String>,
 }
 
+/// The unit's temperature over the run (SPEC §3a): what a thermal model
+/// places the result at.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunTemperature {
+    pub mean_c: f64,
+    pub min_c: f64,
+    pub max_c: f64,
+    /// Largest rate of change over the run, °C/min (0 for a soaked run).
+    pub max_rate_c_per_min: f64,
+}
+
+impl RunTemperature {
+    /// A run soaked at one temperature (metadata `temperature_c`).
+    pub fn soaked(temperature_c: f64) -> Self {
+        RunTemperature {
+            mean_c: temperature_c,
+            min_c: temperature_c,
+            max_c: temperature_c,
+            max_rate_c_per_min: 0.0,
+        }
+    }
+}
+
 /// A calibration result. `parameters` is SPEC §5's; the rest tells how far
 /// to trust it.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -113,6 +136,9 @@ pub struct CalibrationResult {
     /// alone); absent only in results stored before the check existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model_check: Option<ModelCheck>,
+    /// The run's temperature, when its metadata or data state it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<RunTemperature>,
 }
 
 impl CalibrationResult {
