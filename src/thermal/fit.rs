@@ -76,7 +76,7 @@ pub fn fit_polynomial(samples: &[Sample], order: usize) -> Option<PolyFit> {
     if n < m
         || samples
             .iter()
-            .any(|s| !(s.sigma > 0.0) || !s.value.is_finite())
+            .any(|s| s.sigma.is_nan() || s.sigma <= 0.0 || !s.value.is_finite())
     {
         return None;
     }
@@ -89,7 +89,7 @@ pub fn fit_polynomial(samples: &[Sample], order: usize) -> Option<PolyFit> {
     let covariance = normal.clone().try_inverse()?;
     // A singular design (all runs at one temperature for a slope) shows
     // as a covariance that is not finite or not positive.
-    if (0..m).any(|k| !(covariance[(k, k)] > 0.0) || !covariance[(k, k)].is_finite()) {
+    if (0..m).any(|k| !covariance[(k, k)].is_finite() || covariance[(k, k)] <= 0.0) {
         return None;
     }
     let x = &covariance * (a.transpose() * &b);
