@@ -10,7 +10,13 @@ use serde_json::{json, Value};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
-    let app = spawn_app(0).await;
+    // The design's answer, not the server's time limit (its own test
+    // below), is what this test reads: a loaded machine must not turn it
+    // into a refusal.
+    let app = spawn_app_with(0, |c| {
+        c.design_time_limit = std::time::Duration::from_secs(600)
+    })
+    .await;
     let engineer = app.create_token("engineer").await;
     let station = app.create_token("station").await;
     let post = |token: &str, body: Value| {
