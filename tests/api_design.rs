@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{problem, spawn_app, spawn_app_with};
+use common::{problem, spawn_app_with};
 use reqwest::StatusCode;
 use serde_json::{json, Value};
 
