@@ -4,6 +4,7 @@
 //! and every run is calibrated exactly once.
 
 mod common;
+mod thermal_support;
 
 use std::time::Duration;
 
@@ -291,4 +292,95 @@ async fn the_configured_model_reaches_the_calibrate_jobs() {
         (value - 2.0).abs() < 3.0 * sigma,
         "delay {value} ± {sigma} ms for 2"
     );
+}
+
+/// A unit's thermal model over the API and on its page: runs uploaded with
+/// their soak temperature (metadata `temperature_c`) are calibrated, the
+/// result and the store keep the temperature, and
+/// `GET /units/{serial}/thermal` fits them (range, runs, a slope the truth
+/// has within 3σ); one temperature is 409, an unknown unit 404, a station
+/// 403; the unit page shows the model's table and charts.
+#[tokio::test]
+async fn a_unit_s_thermal_model_from_its_soaked_runs() {
+    let app = spawn_app(2).await;
+    let dir = tempfile::tempdir().unwrap();
+    let serial = "RLG-T";
+    let mut jobs = Vec::new();
+    for (k, t) in [-20.0, 25.0, 65.0].into_iter().enumerate() {
+        let mut cfg = sim_config(
+            40 + k as u64,
+            thermal_support::parameters_at(t),
+            "ten-position",
+            30.0,
+        );
+        cfg.sample_rate_hz = 50.0;
+        let d = dir.path().join(format!("t{k}"));
+        std::fs::create_dir_all(&d).unwrap();
+        let run = simulate_run(&d, &cfg, DataFormat::F64le, false, serial, None);
+        let mut meta: Value = serde_json::from_slice(&run.metadata).unwrap();
+        meta["temperature_c"] = serde_json::json!(t);
+        let meta = serde_json::to_vec(&meta).unwrap();
+        let r = app
+            .upload_multipart(&app.admin, serial, &meta, std::fs::read(&run.data).unwrap())
+            .await;
+        assert_eq!(r.status(), StatusCode::ACCEPTED);
+        let up: Value = r.json().await.unwrap();
+        jobs.push(up["job_id"].as_str().unwrap().to_string());
+        if k == 0 {
+            // One temperature is no model yet.
+            let job = app.wait_job(&jobs[0], Duration::from_secs(240)).await;
+            assert_eq!(job["state"], "succeeded");
+            let r = app
+                .get(&app.admin, &format!("/units/{serial}/thermal"))
+                .await;
+            assert_eq!(r.status(), StatusCode::CONFLICT);
+            let result = app.get_result(up["run_id"].as_str().unwrap()).await;
+            assert_eq!(result["temperature"]["mean_c"], -20.0);
+        }
+    }
+    for j in &jobs {
+        let job = app.wait_job(j, Duration::from_secs(240)).await;
+        assert_eq!(job["state"], "succeeded");
+    }
+    let model = app.get_json(&format!("/units/{serial}/thermal")).await;
+    assert_eq!(model["range_c"], serde_json::json!([-20.0, 65.0]));
+    assert_eq!(model["runs"].as_array().unwrap().len(), 3);
+    assert_eq!(model["parameters"].as_object().unwrap().len(), 24);
+    let slope = &model["parameters"]["accel_bias_x"]["linear"];
+    let truth = thermal_support::linear()["accel_bias_x"];
+    let z = (slope["value"].as_f64().unwrap() - truth) / slope["sigma"].as_f64().unwrap();
+    assert!(
+        z.abs() < 3.0,
+        "accel_bias_x slope {slope} against {truth}: {z:.2} σ"
+    );
+    let station = app.create_token("station").await;
+    let r = app.get(&station, &format!("/units/{serial}/thermal")).await;
+    assert_eq!(r.status(), StatusCode::FORBIDDEN);
+    let r = app.get(&app.admin, "/units/RLG-NONE/thermal").await;
+    assert_eq!(r.status(), StatusCode::NOT_FOUND);
+    // Only runs after all three: none, so no model.
+    let r = app
+        .get(
+            &app.admin,
+            &format!("/units/{serial}/thermal?from=2999-01-01"),
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::CONFLICT);
+    let page = app.sign_in(&app.admin).await;
+    let html = page
+        .get(&format!("/units/{serial}"))
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        html.contains("id=\"thermal\""),
+        "the unit page shows the model"
+    );
+    assert_eq!(
+        html.matches("<svg").count(),
+        24 + 24,
+        "trend and thermal charts"
+    );
+    app.stop().await;
 }

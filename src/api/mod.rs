@@ -10,6 +10,7 @@ pub(crate) mod noise;
 pub(crate) mod products;
 pub(crate) mod runs;
 mod schemes;
+pub(crate) mod thermal;
 pub(crate) mod tokens;
 pub(crate) mod units;
 pub mod upload;
@@ -84,6 +85,7 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .merge(noise::router())
         .merge(jobs::router())
         .merge(units::router())
+        .merge(thermal::router())
         .merge(schemes::router())
         .merge(tokens::router())
         .merge(products::router())

@@ -245,6 +245,7 @@ impl Store {
                 .cross_check
                 .as_ref()
                 .map_or(&[], |c| c.flagged.as_slice()),
+            temperature: result.temperature,
             document: &result_json,
         };
         insert_result(&mut tx, &stored).await?;

@@ -13,6 +13,7 @@ use super::runs::{insert_unit_and_run, NewRun};
 use super::spread::{self, ParamSpread, SpreadAccumulator};
 use super::verdicts::{refresh_unit, StoredVerdict};
 use crate::accept::VerdictStatus;
+use crate::calib::result::RunTemperature;
 use crate::calib::{ModelCheck, ParameterEstimate};
 
 #[derive(Clone, Debug, FromRow)]
@@ -87,6 +88,16 @@ impl HistoryRow {
             self.verdict_at,
         )
     }
+}
+
+/// A result as a thermal model reads it.
+#[derive(Clone, Debug, FromRow)]
+pub struct ThermalRow {
+    pub run_id: String,
+    pub run_time: i64,
+    /// The parameters' JSON.
+    pub parameters: String,
+    pub temperature_c: f64,
 }
 
 /// A unit's summary columns (`u` the unit, `v` its latest result).
@@ -239,6 +250,33 @@ impl Store {
         Ok((total, rows))
     }
 
+    /// A unit's calibrated runs that state a temperature spanning at most
+    /// `max_span_c`, with `from <= run_time < to` and, when given, the
+    /// verdict `verdict`, oldest first: what its thermal model is fitted
+    /// from.
+    pub async fn thermal_rows(
+        &self,
+        serial: &str,
+        (from, to): (i64, i64),
+        verdict: Option<VerdictStatus>,
+        max_span_c: f64,
+    ) -> Result<Vec<ThermalRow>, StoreError> {
+        Ok(sqlx::query_as(
+            "SELECT run_id, run_time, parameters, temperature_c FROM results
+             WHERE unit_serial = ?1 AND run_time >= ?2 AND run_time < ?3
+               AND temperature_c IS NOT NULL AND temperature_span_c <= ?4
+               AND (?5 IS NULL OR verdict = ?5)
+             ORDER BY run_time, run_id",
+        )
+        .bind(serial)
+        .bind(from)
+        .bind(to)
+        .bind(max_span_c)
+        .bind(verdict)
+        .fetch_all(&self.read)
+        .await?)
+    }
+
     /// Per-parameter spread over a unit's calibrated runs with
     /// `run_time >= since`, the `last` most recent of them (`None`: all).
     ///
@@ -303,6 +341,7 @@ impl Store {
             model_check: None,
             poorly_observable: &[],
             cross_check_flagged: &[],
+            temperature: None,
             document: &document,
         };
         insert_result(&mut tx, &stored).await?;
@@ -323,6 +362,8 @@ pub(super) struct StoredResult<'a> {
     pub(super) model_check: Option<&'a ModelCheck>,
     pub(super) poorly_observable: &'a [String],
     pub(super) cross_check_flagged: &'a [String],
+    /// The run's temperature, when it stated one.
+    pub(super) temperature: Option<RunTemperature>,
     /// The whole `CalibrationResult` JSON.
     pub(super) document: &'a str,
 }
@@ -334,8 +375,8 @@ pub(super) async fn insert_result(
     sqlx::query(
         "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
                               param_values, model_adequate, model_summary, poorly_observable,
-                              cross_check_flagged)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                              cross_check_flagged, temperature_c, temperature_span_c)
+         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
     )
     .bind(r.run_id)
     .bind(r.job_id)
@@ -348,6 +389,8 @@ pub(super) async fn insert_result(
     .bind(r.model_check.map(|c| c.summary.as_str()))
     .bind(serde_json::to_string(r.poorly_observable)?)
     .bind(serde_json::to_string(r.cross_check_flagged)?)
+    .bind(r.temperature.map(|t| t.mean_c))
+    .bind(r.temperature.map(|t| t.max_c - t.min_c))
     .execute(&mut **tx)
     .await?;
     sqlx::query("INSERT INTO result_documents (run_id, result) VALUES (?, ?)")

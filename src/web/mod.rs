@@ -24,6 +24,7 @@ mod session;
 mod signin;
 mod unit;
 mod unit_tables;
+mod unit_thermal;
 mod units;
 mod upload;
 

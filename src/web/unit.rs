@@ -15,7 +15,10 @@ use super::format;
 use super::layout;
 use super::session::Session;
 use super::unit_tables::{repeatability_table, trend_charts, UnitRun};
+use super::unit_thermal::thermal_section;
 use crate::api::auth::roles;
+use crate::api::error::ApiError;
+use crate::api::thermal::{unit_thermal_model, ThermalQuery};
 use crate::api::AppState;
 use crate::calib::ParameterEstimate;
 use crate::io::meta::validate_serial;
@@ -75,6 +78,13 @@ pub async fn page(
             model_adequate: r.model_adequate,
         });
     }
+    // The thermal model when the unit's runs span two temperatures; its
+    // absence is the common case, not an error.
+    let thermal = match unit_thermal_model(&st, &serial, &ThermalQuery::default()).await {
+        Ok(fitted) => Some(fitted),
+        Err(ApiError::Conflict(_)) => None,
+        Err(e) => return Err(e.into()),
+    };
     let all_columns = q.columns == "all";
     let verdict = unit.verdict()?.map(|v| v.status());
     let (word, class) = format::verdict(verdict);
@@ -96,6 +106,10 @@ pub async fn page(
         h2 { "Trends" }
         p.muted { "Each run's estimate ± 1σ against the run's date; the band is the product type's limit on |value|." }
         (trend_charts(&runs, limits.as_ref()))
+        @if let Some((model, soaks)) = &thermal {
+            h2 { "Thermal model" }
+            (thermal_section(model, soaks))
+        }
     };
     Ok(Html(
         layout::page(&format!("Unit {serial}"), Some(&session), body).into_string(),
