@@ -9,9 +9,8 @@ use maud::html;
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::run::{parameter_table, parsed_result, product_limits, readable_run};
+use super::run::{engineer_run, parameter_table, parsed_result, product_limits};
 use super::session::Session;
-use crate::api::auth::roles;
 use crate::api::AppState;
 use crate::io::meta::RunMetadata;
 
@@ -20,8 +19,7 @@ pub async fn page(
     session: Session,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
-    session.require(roles::ENGINEER)?;
-    let run = readable_run(&st, &session, id).await?;
+    let run = engineer_run(&st, &session, id).await?;
     let result = parsed_result(&st, &run.id).await?.ok_or_else(|| {
         PageError::not_found(format!("run {} has no result: no certificate yet", run.id))
     })?;

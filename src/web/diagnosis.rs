@@ -9,9 +9,8 @@ use maud::{html, Markup, PreEscaped};
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::run::readable_run;
+use super::run::engineer_run;
 use super::session::Session;
-use crate::api::auth::roles;
 use crate::api::error::ApiError;
 use crate::api::AppState;
 use crate::diagnose::{DiagnoseReport, DiagnoseStep};
@@ -22,8 +21,7 @@ pub async fn page(
     session: Session,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
-    session.require(roles::ENGINEER)?;
-    let run = readable_run(&st, &session, id).await?;
+    let run = engineer_run(&st, &session, id).await?;
     let json = crate::api::runs::latest_report(&st, &run.id).await?;
     let report: DiagnoseReport = tokio::task::spawn_blocking(move || serde_json::from_str(&json))
         .await

@@ -9,9 +9,8 @@ use maud::{html, PreEscaped};
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::run::readable_run;
+use super::run::engineer_run;
 use super::session::Session;
-use crate::api::auth::roles;
 use crate::api::noise::analyse_noise;
 use crate::api::AppState;
 use crate::noise::report::Span;
@@ -28,12 +27,45 @@ fn log_spaced(lo: f64, hi: f64) -> impl Iterator<Item = f64> {
     (0..MODEL_POINTS).map(move |i| (a + (b - a) * i as f64 / (MODEL_POINTS - 1) as f64).exp())
 }
 
-fn allan_chart(title: &str, y_label: &str) -> Chart {
+/// One sensor kind's chart: each axis's measured deviation (markers) and
+/// its fitted model (dashed, `fit(axis, τ)`), in the axis's colour.
+fn allan_chart<'a>(
+    (title, y_label, sensor): (&str, &str, &str),
+    tau: &[f64],
+    measured: impl Iterator<Item = &'a [f64]>,
+    fit: impl Fn(usize, f64) -> f64,
+) -> Chart {
     let mut c = Chart::new(title, "averaging time τ (s)", y_label);
     c.x_scale = Scale::Log10;
     c.y_scale = Scale::Log10;
     c.width = 640.0;
     c.height = 380.0;
+    let (lo, hi) = (
+        tau.first().copied().unwrap_or(1.0),
+        tau.last().copied().unwrap_or(1.0),
+    );
+    for (k, adev) in measured.enumerate() {
+        let axis = ["x", "y", "z"][k];
+        let mut data = Series::new(
+            format!("{sensor} {axis}"),
+            Style::Markers,
+            tau.iter()
+                .zip(adev)
+                .map(|(&x, &y)| Point::new(x, y))
+                .collect(),
+        );
+        data.colour = Some(AXIS_COLOURS[k].into());
+        let mut model = Series::new(
+            format!("fit {axis}"),
+            Style::Dashed,
+            log_spaced(lo, hi)
+                .map(|t| Point::new(t, fit(k, t)))
+                .collect(),
+        );
+        model.colour = Some(AXIS_COLOURS[k].into());
+        c.series.push(data);
+        c.series.push(model);
+    }
     c
 }
 
@@ -42,66 +74,29 @@ pub async fn page(
     session: Session,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
-    session.require(roles::ENGINEER)?;
-    let run = readable_run(&st, &session, id).await?;
+    let run = engineer_run(&st, &session, id).await?;
     let report = analyse_noise(&st, &run.id).await?;
     let tau = &report.curves.tau_s;
-    let (lo, hi) = (
-        tau.first().copied().unwrap_or(1.0),
-        tau.last().copied().unwrap_or(1.0),
+    let gyro = allan_chart(
+        ("Gyro Allan deviation", "σ(τ) (deg/h)", "gyro"),
+        tau,
+        report
+            .curves
+            .gyro
+            .iter()
+            .map(|(_, c)| c.adev_deg_h.as_slice()),
+        |k, t| [&report.gyro.x, &report.gyro.y, &report.gyro.z][k].model_adev_deg_h(t),
     );
-    let points = |adev: &[f64]| -> Vec<Point> {
-        tau.iter()
-            .zip(adev)
-            .map(|(&x, &y)| Point { x, y, sigma: None })
-            .collect()
-    };
-    let mut gyro = allan_chart("Gyro Allan deviation", "σ(τ) (deg/h)");
-    for (k, (axis, curve)) in report.curves.gyro.iter().enumerate() {
-        gyro.series.push(Series {
-            name: format!("gyro {axis}"),
-            style: Style::Markers,
-            colour: Some(AXIS_COLOURS[k].into()),
-            points: points(&curve.adev_deg_h),
-        });
-    }
-    for (k, (axis, n)) in report.gyro.iter().enumerate() {
-        gyro.series.push(Series {
-            name: format!("fit {axis}"),
-            style: Style::Dashed,
-            colour: Some(AXIS_COLOURS[k].into()),
-            points: log_spaced(lo, hi)
-                .map(|t| Point {
-                    x: t,
-                    y: n.model_adev_deg_h(t),
-                    sigma: None,
-                })
-                .collect(),
-        });
-    }
-    let mut accel = allan_chart("Accelerometer Allan deviation", "σ(τ) (µg)");
-    for (k, (axis, curve)) in report.curves.accel.iter().enumerate() {
-        accel.series.push(Series {
-            name: format!("accel {axis}"),
-            style: Style::Markers,
-            colour: Some(AXIS_COLOURS[k].into()),
-            points: points(&curve.adev_ug),
-        });
-    }
-    for (k, (axis, n)) in report.accel.iter().enumerate() {
-        accel.series.push(Series {
-            name: format!("fit {axis}"),
-            style: Style::Dashed,
-            colour: Some(AXIS_COLOURS[k].into()),
-            points: log_spaced(lo, hi)
-                .map(|t| Point {
-                    x: t,
-                    y: n.model_adev_ug(t),
-                    sigma: None,
-                })
-                .collect(),
-        });
-    }
+    let accel = allan_chart(
+        ("Accelerometer Allan deviation", "σ(τ) (µg)", "accel"),
+        tau,
+        report
+            .curves
+            .accel
+            .iter()
+            .map(|(_, c)| c.adev_ug.as_slice()),
+        |k, t| [&report.accel.x, &report.accel.y, &report.accel.z][k].model_adev_ug(t),
+    );
     let over = &report.computed_over;
     let body = html! {
         h1 { "Noise of run " a href={ "/runs/" (run.id) } { code { (format::short_id(&run.id)) } } " (unit " (run.unit_serial) ")" }

@@ -127,10 +127,10 @@ pub async fn page(
             (verdict_block(verdict.as_ref()))
             div.actions {
                 "Download: "
-                a href={ "/runs/" (run.id) "/result.json" } download { "result JSON" }
-                a href={ "/runs/" (run.id) "/result.csv" } download { "result CSV" }
-                a href={ "/runs/" (run.id) "/compensation.json" } download { "compensation JSON" }
-                a href={ "/runs/" (run.id) "/compensation.csv" } download { "compensation CSV" }
+                a href={ "/runs/" (run.id) "/files/result.json" } download { "result JSON" }
+                a href={ "/runs/" (run.id) "/files/result.csv" } download { "result CSV" }
+                a href={ "/runs/" (run.id) "/files/compensation.json" } download { "compensation JSON" }
+                a href={ "/runs/" (run.id) "/files/compensation.csv" } download { "compensation CSV" }
                 a href={ "/runs/" (run.id) "/certificate" } { "certificate" }
             }
             h2 { "Parameters" }
@@ -387,47 +387,83 @@ pub async fn delete(
     Ok(see_other(&format!("/units/{}", run.unit_serial)))
 }
 
-fn download(content_type: &'static str, name: String, body: String) -> Response {
-    let mut resp = ([(header::CONTENT_TYPE, content_type)], body).into_response();
-    if let Ok(v) = HeaderValue::from_str(&format!("attachment; filename=\"{name}\"")) {
-        resp.headers_mut().insert(header::CONTENT_DISPOSITION, v);
-    }
-    resp
+/// The run's files the page offers for download.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RunFile {
+    ResultJson,
+    ResultCsv,
+    CompensationJson,
+    CompensationCsv,
 }
 
-async fn engineer_run(st: &AppState, session: &Session, id: String) -> Result<RunRow, PageError> {
+impl RunFile {
+    const ALL: [(&'static str, RunFile); 4] = [
+        ("result.json", RunFile::ResultJson),
+        ("result.csv", RunFile::ResultCsv),
+        ("compensation.json", RunFile::CompensationJson),
+        ("compensation.csv", RunFile::CompensationCsv),
+    ];
+
+    fn named(name: &str) -> Option<(&'static str, RunFile)> {
+        RunFile::ALL.into_iter().find(|(n, _)| *n == name)
+    }
+}
+
+/// A run the session reads as an engineer (downloads and the pages built
+/// on a run's result).
+pub(super) async fn engineer_run(
+    st: &AppState,
+    session: &Session,
+    id: String,
+) -> Result<RunRow, PageError> {
     session.require(roles::ENGINEER)?;
     readable_run(st, session, id).await
 }
 
-pub async fn result_json(
+/// `/runs/{id}/files/{name}`: the result (JSON as the API answers it, or
+/// CSV: one row per parameter, the 24 then effects) or the compensation
+/// file (JSON or CSV), as an attachment named for the unit and run.
+pub async fn download(
     State(st): State<AppState>,
     session: Session,
-    Path(id): Path<String>,
+    Path((id, name)): Path<(String, String)>,
 ) -> Result<Response, PageError> {
+    let (name, file) = RunFile::named(&name)
+        .ok_or_else(|| PageError::not_found(format!("no run file {name:?}")))?;
     let run = engineer_run(&st, &session, id).await?;
-    let doc = crate::api::runs::result_document(&st, &run.id).await?;
-    Ok(download(
-        "application/json",
-        format!(
-            "{}-{}-result.json",
-            run.unit_serial,
-            format::short_id(&run.id)
+    let (content_type, body) = match file {
+        RunFile::ResultJson => (
+            "application/json",
+            crate::api::runs::result_document(&st, &run.id).await?,
         ),
-        doc,
-    ))
+        RunFile::ResultCsv => {
+            let r = parsed_result(&st, &run.id)
+                .await?
+                .ok_or_else(|| PageError::not_found(format!("run {} has no result yet", run.id)))?;
+            ("text/csv", result_csv(&r))
+        }
+        RunFile::CompensationJson | RunFile::CompensationCsv => {
+            let c = crate::api::compensation::compensation_of(&st, &run.id).await?;
+            if file == RunFile::CompensationJson {
+                ("application/json", c.to_json())
+            } else {
+                ("text/csv", c.to_csv())
+            }
+        }
+    };
+    let mut resp = ([(header::CONTENT_TYPE, content_type)], body).into_response();
+    let attachment = format!(
+        "attachment; filename=\"{}-{}-{name}\"",
+        run.unit_serial,
+        format::short_id(&run.id)
+    );
+    if let Ok(v) = HeaderValue::from_str(&attachment) {
+        resp.headers_mut().insert(header::CONTENT_DISPOSITION, v);
+    }
+    Ok(resp)
 }
 
-/// The result as a table: one row per parameter (the 24, then effects).
-pub async fn result_csv(
-    State(st): State<AppState>,
-    session: Session,
-    Path(id): Path<String>,
-) -> Result<Response, PageError> {
-    let run = engineer_run(&st, &session, id).await?;
-    let r = parsed_result(&st, &run.id)
-        .await?
-        .ok_or_else(|| PageError::not_found(format!("run {} has no result yet", run.id)))?;
+fn result_csv(r: &CalibrationResult) -> String {
     let mut csv = String::from("parameter,value,sigma,unit\n");
     for p in PARAMETERS.iter() {
         if let Some(e) = r.parameters.get(p.name) {
@@ -437,49 +473,5 @@ pub async fn result_csv(
     for (name, e) in &r.effects {
         csv.push_str(&format!("{name},{},{},{}\n", e.value, e.sigma, e.unit));
     }
-    Ok(download(
-        "text/csv",
-        format!(
-            "{}-{}-result.csv",
-            run.unit_serial,
-            format::short_id(&run.id)
-        ),
-        csv,
-    ))
-}
-
-pub async fn compensation_json(
-    State(st): State<AppState>,
-    session: Session,
-    Path(id): Path<String>,
-) -> Result<Response, PageError> {
-    let run = engineer_run(&st, &session, id).await?;
-    let file = crate::api::compensation::compensation_of(&st, &run.id).await?;
-    Ok(download(
-        "application/json",
-        format!(
-            "{}-{}-compensation.json",
-            run.unit_serial,
-            format::short_id(&run.id)
-        ),
-        file.to_json(),
-    ))
-}
-
-pub async fn compensation_csv(
-    State(st): State<AppState>,
-    session: Session,
-    Path(id): Path<String>,
-) -> Result<Response, PageError> {
-    let run = engineer_run(&st, &session, id).await?;
-    let file = crate::api::compensation::compensation_of(&st, &run.id).await?;
-    Ok(download(
-        "text/csv",
-        format!(
-            "{}-{}-compensation.csv",
-            run.unit_serial,
-            format::short_id(&run.id)
-        ),
-        file.to_csv(),
-    ))
+    csv
 }

@@ -56,12 +56,19 @@ impl TestApp {
         self.base.trim_end_matches("/api/v1").to_string()
     }
 
-    /// Signs in through the sign-in form with `token`, as a browser does:
-    /// the form's own cookie and token, then the session cookie.
-    pub async fn sign_in(&self, token: &str) -> PageSession {
+    /// Posts the sign-in form with `token` as a browser does: the form's
+    /// own cookie and token first, then the form; `tls` as behind a TLS
+    /// proxy. The answer to the post.
+    pub async fn sign_in_form(&self, token: &str, tls: bool) -> Response {
         let http = no_redirects();
         let origin = self.origin();
-        let form = http.get(format!("{origin}/signin")).send().await.unwrap();
+        let proto = if tls { "https" } else { "http" };
+        let form = http
+            .get(format!("{origin}/signin"))
+            .header("x-forwarded-proto", proto)
+            .send()
+            .await
+            .unwrap();
         assert_eq!(form.status(), StatusCode::OK);
         let form_cookie = set_cookie(&form, "sinscal_signin")
             .expect("the sign-in form sets its cookie")
@@ -72,13 +79,21 @@ impl TestApp {
         let html = form.text().await.unwrap();
         let at = html.find("name=\"form_token\" value=\"").unwrap() + 25;
         let form_token: String = html[at..].chars().take_while(|c| *c != '"').collect();
-        let r = http
-            .post(format!("{origin}/signin"))
+        http.post(format!("{origin}/signin"))
             .header(COOKIE, form_cookie)
+            .header("x-forwarded-proto", proto)
             .form(&[("token", token), ("form_token", form_token.as_str())])
             .send()
             .await
-            .unwrap();
+            .unwrap()
+    }
+
+    /// Signs in through the form with `token`: the session's cookie and
+    /// CSRF token.
+    pub async fn sign_in(&self, token: &str) -> PageSession {
+        let http = no_redirects();
+        let origin = self.origin();
+        let r = self.sign_in_form(token, false).await;
         assert_eq!(
             r.status(),
             StatusCode::SEE_OTHER,

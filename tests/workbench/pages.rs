@@ -21,10 +21,13 @@ const PAGES: &[(&str, &[&str])] = &[
     ("/runs/{run}/progress", &["engineer", "admin"]),
     ("/runs/{run}/certificate", &["engineer", "admin"]),
     ("/runs/{run}/noise", &["engineer", "admin"]),
-    ("/runs/{run}/result.json", &["engineer", "admin"]),
-    ("/runs/{run}/result.csv", &["engineer", "admin"]),
-    ("/runs/{run}/compensation.json", &["engineer", "admin"]),
-    ("/runs/{run}/compensation.csv", &["engineer", "admin"]),
+    ("/runs/{run}/files/result.json", &["engineer", "admin"]),
+    ("/runs/{run}/files/result.csv", &["engineer", "admin"]),
+    (
+        "/runs/{run}/files/compensation.json",
+        &["engineer", "admin"],
+    ),
+    ("/runs/{run}/files/compensation.csv", &["engineer", "admin"]),
     ("/upload", &["station", "admin"]),
     ("/admin", &["admin"]),
 ];
@@ -78,8 +81,8 @@ async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
     assert_eq!(root.status(), StatusCode::OK);
     assert!(root.text().await.unwrap().contains("name=\"token\""));
     // A wrong token, and a form without its cookie, are refused.
-    let bad = app.sign_in_attempt("sinscal_0000").await;
-    assert_eq!(bad, StatusCode::UNAUTHORIZED);
+    let bad = app.sign_in_form("sinscal_0000", false).await;
+    assert_eq!(bad.status(), StatusCode::UNAUTHORIZED);
     let forged = http
         .post(format!("{origin}/signin"))
         .form(&[("token", app.admin.as_str()), ("form_token", "abc")])
@@ -91,59 +94,16 @@ async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
     app.stop().await;
 }
 
-impl TestApp {
-    /// Signs in with `token` through the form and returns the status.
-    async fn sign_in_attempt(&self, token: &str) -> StatusCode {
-        let http = crate::common::pages::no_redirects();
-        let origin = self.origin();
-        let form = http.get(format!("{origin}/signin")).send().await.unwrap();
-        let cookie = set_cookie(&form, "sinscal_signin")
-            .unwrap()
-            .split(';')
-            .next()
-            .unwrap()
-            .to_string();
-        let html = form.text().await.unwrap();
-        let at = html.find("name=\"form_token\" value=\"").unwrap() + 25;
-        let ft: String = html[at..].chars().take_while(|c| *c != '"').collect();
-        http.post(format!("{origin}/signin"))
-            .header(reqwest::header::COOKIE, cookie)
-            .form(&[("token", token), ("form_token", ft.as_str())])
-            .send()
-            .await
-            .unwrap()
-            .status()
-    }
-}
-
 #[tokio::test]
 async fn the_session_cookie_is_http_only_strict_and_secure_behind_tls() {
     let app = spawn_app(1).await;
-    let http = crate::common::pages::no_redirects();
-    let origin = app.origin();
-    for (tls, secure) in [(false, false), (true, true)] {
-        let mut get = http.get(format!("{origin}/signin"));
-        if tls {
-            get = get.header("x-forwarded-proto", "https");
-        }
-        let form = get.send().await.unwrap();
-        let cookie = set_cookie(&form, "sinscal_signin").unwrap().to_string();
-        let html = form.text().await.unwrap();
-        let at = html.find("name=\"form_token\" value=\"").unwrap() + 25;
-        let ft: String = html[at..].chars().take_while(|c| *c != '"').collect();
-        let mut post = http
-            .post(format!("{origin}/signin"))
-            .header(reqwest::header::COOKIE, cookie.split(';').next().unwrap())
-            .form(&[("token", app.admin.as_str()), ("form_token", ft.as_str())]);
-        if tls {
-            post = post.header("x-forwarded-proto", "https");
-        }
-        let r = post.send().await.unwrap();
+    for tls in [false, true] {
+        let r = app.sign_in_form(&app.admin, tls).await;
         let session = set_cookie(&r, "sinscal_session").unwrap();
         assert!(session.contains("HttpOnly"), "{session}");
         assert!(session.contains("SameSite=Strict"), "{session}");
         assert!(session.contains("Path=/"), "{session}");
-        assert_eq!(session.contains("Secure"), secure, "{session}");
+        assert_eq!(session.contains("Secure"), tls, "{session}");
     }
     // Signing out ends the session on the server, not only in the browser.
     let s = app.sign_in(&app.admin).await;
