@@ -23,6 +23,9 @@ pub struct FileSource {
     pub format: DataFormat,
     pub sample_rate_hz: f64,
     pub limits: ReadLimits,
+    /// f64le: each record carries `temp_c` (the metadata's
+    /// `temperature_column`).
+    pub temperature_column: bool,
 }
 
 impl FileSource {
@@ -34,6 +37,7 @@ impl FileSource {
             format: meta.format,
             sample_rate_hz: meta.sample_rate_hz,
             limits: ReadLimits::default(),
+            temperature_column: meta.temperature_column,
         };
         let run = RunInfo {
             site: meta.site(),
@@ -53,7 +57,8 @@ impl RecordSource for FileSource {
             self.sample_rate_hz,
             self.limits,
         )
-        .map_err(|e| CalibError::Source(e.to_string()))?;
+        .map_err(|e| CalibError::Source(e.to_string()))?
+        .with_temperature_column(self.temperature_column);
         Ok(Box::new(
             reader.map(|r| r.map_err(|e| CalibError::Source(e.to_string()))),
         ))
@@ -163,6 +168,9 @@ pub fn compensate_file(
     })?;
     let mut out_meta = meta.clone();
     out_meta.format = target.format;
+    // A CSV input states its column in its header; the output's f64le
+    // needs the metadata to say it.
+    out_meta.temperature_column = records.1;
     let applied = serde_json::to_value(file).map_err(|source| MetaError::Json {
         what: "compensation".into(),
         source,
@@ -172,7 +180,7 @@ pub fn compensate_file(
     Ok(CompensatedRun {
         data: target.data.clone(),
         metadata,
-        records,
+        records: records.0,
     })
 }
 
@@ -197,8 +205,10 @@ fn write_compensated(
     meta: &RunMetadata,
     file: &CompensationFile,
     target: &CompensateTarget,
-) -> Result<u64, CompensateError> {
-    let reader = RecordReader::open(data, meta.format, meta.sample_rate_hz)?;
+) -> Result<(u64, bool), CompensateError> {
+    let reader = RecordReader::open(data, meta.format, meta.sample_rate_hz)?
+        .with_temperature_column(meta.temperature_column);
+    let temperature_column = reader.has_temperature();
     let options = if target.format == DataFormat::Csv {
         let p = &file.provenance;
         WriteOptions {
@@ -213,11 +223,13 @@ fn write_compensated(
                     .map_or(String::new(), |id| format!(", run {id}")),
                 meta.unit_serial
             )],
+            temperature_column,
         }
     } else {
         WriteOptions {
             gzip: target.gzip,
             comments: Vec::new(),
+            temperature_column,
         }
     };
     let write_err = |source| CompensateError::Write {
@@ -227,10 +239,17 @@ fn write_compensated(
     let mut writer =
         RecordWriter::create(&target.data, target.format, &options).map_err(write_err)?;
     let mut records = 0;
-    for rec in Compensated::new(reader, &file.parameters(), meta.sample_rate_hz) {
-        writer.write_record(&rec?).map_err(write_err)?;
+    // The temperature column, if any, passes through unchanged.
+    let mut compensated = Compensated::new(reader, &file.parameters(), meta.sample_rate_hz);
+    while let Some(rec) = compensated.next() {
+        let rec = rec?;
+        match compensated.inner().temperature_c() {
+            Some(temp_c) => writer.write_record_with_temperature(&rec, temp_c),
+            None => writer.write_record(&rec),
+        }
+        .map_err(write_err)?;
         records += 1;
     }
     writer.finish().map_err(write_err)?;
-    Ok(records)
+    Ok((records, temperature_column))
 }

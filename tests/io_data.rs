@@ -122,6 +122,7 @@ fn write_csv(path: &Path, records: &[Record], gzip: bool) {
             "unit RLG-0042".into(),
             "written by the io_data tests".into(),
         ],
+        temperature_column: false,
     };
     let mut w = CsvWriter::new(fs::File::create(path).expect("create"), &options);
     for r in records {

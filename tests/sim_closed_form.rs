@@ -46,6 +46,8 @@ fn config(scheme: Scheme, params: ErrorParameters, effects: Effects) -> SimConfi
         noise: Noise::default(),
         initial_attitude_error_deg: [0.0; 3],
         seed: 7,
+        thermal: None,
+        temperature: None,
     }
 }
 
