@@ -377,6 +377,28 @@ impl TemperatureHistory {
         }
     }
 
+    /// The first time after `t` where T(t) has a kink (a ramp starts or
+    /// stops, a point), s.
+    pub fn next_break_after(&self, t: f64) -> Option<f64> {
+        match self {
+            TemperatureHistory::Soak(_) => None,
+            TemperatureHistory::Ramp {
+                start_c,
+                rate_c_per_min,
+                max_c,
+            } => {
+                if *rate_c_per_min == 0.0 {
+                    return None;
+                }
+                let end_s = (max_c - start_c) / rate_c_per_min * 60.0;
+                [0.0, end_s].into_iter().find(|b| *b > t)
+            }
+            TemperatureHistory::Points(points) => points
+                .get(points.partition_point(|p| p[0] <= t))
+                .map(|p| p[0]),
+        }
+    }
+
     /// Ṫ(t), °C/min: the slope of the piece holding t, the piece that
     /// starts at t where two meet.
     pub fn rate_c_per_min(&self, t: f64) -> f64 {
@@ -495,6 +517,9 @@ mod tests {
         assert_eq!(h.rate_c_per_min(600.0), 0.25);
         assert_eq!(h.rate_c_per_min(12_000.0), 0.0);
         assert_eq!(h.rate_c_per_min(-1.0), 0.0);
+        assert_eq!(h.next_break_after(-1.0), Some(0.0));
+        assert_eq!(h.next_break_after(0.0), Some(12_000.0));
+        assert_eq!(h.next_break_after(12_000.0), None);
         let cool = history(r#"{"start_c": 40, "rate_c_per_min": -1, "max_c": 20}"#).unwrap();
         assert_eq!(cool.temperature_c(30.0 * 60.0), 20.0);
         assert!((cool.temperature_c(60.0) - 39.0).abs() < 1e-12);
@@ -514,6 +539,8 @@ mod tests {
         assert_eq!(h.rate_c_per_min(700.0), 0.0);
         assert!((h.rate_c_per_min(1600.0) + 0.5).abs() < 1e-12);
         assert_eq!(h.rate_c_per_min(50.0), 0.0);
+        assert_eq!(h.next_break_after(100.0), Some(700.0));
+        assert_eq!(h.next_break_after(1900.0), None);
         for bad in [
             r#"{"points": []}"#,
             r#"{"points": [[0, 20], [0, 21]]}"#,

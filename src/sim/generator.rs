@@ -18,8 +18,10 @@
 //! - with a thermal model (SPEC §3a) the parameters of each record are
 //!   those at the temperature of its interval's midpoint (the gyro's
 //!   interval, and the accelerometer's own when it lags), and k Ṫ is
-//!   integrated exactly as k (T(t_k) − T(t_k − Δt)); see `params_over`
-//!   for why the midpoint is far below 1e-10 rad of the exact integral;
+//!   integrated exactly as k (T(t_k) − T(t_k − Δt)); an interval in
+//!   which a ramp starts or stops is cut there and each piece takes its
+//!   own midpoint (`thermal_pieces`); see `params_over` for why the
+//!   midpoint is far below 1e-10 rad of the exact integral;
 //! - noise is drawn from a ChaCha8 stream seeded with `seed`: per record
 //!   three gyro then three accelerometer standard normal deviates.
 
@@ -420,10 +422,19 @@ impl Simulator {
     fn record(&mut self, k: u64) -> Record {
         let (t_prev, t) = ((k - 1) as f64 / self.rate, k as f64 / self.rate);
         let dt = self.dt;
-        let p = self.params_over(t_prev, t);
 
-        let gi = self.gyro_integrals(t_prev, t);
-        let mut dtheta = p.apply_gyro(&gi.dtheta, dt);
+        let mut dtheta = Vector3::zeros();
+        let mut int_f = Vector3::zeros();
+        let mut int_abs_omega = Vector3::zeros();
+        let edges = self.thermal_pieces(t_prev, t);
+        for w in edges.windows(2) {
+            // One piece is the whole record, whose Δt is the nominal one.
+            let len = if edges.len() == 2 { dt } else { w[1] - w[0] };
+            let gi = self.gyro_integrals(w[0], w[1]);
+            dtheta += self.params_over(w[0], w[1]).apply_gyro(&gi.dtheta, len);
+            int_f += gi.f;
+            int_abs_omega += gi.abs_omega;
+        }
         if let (Some(m), Some(h)) = (&self.thermal, &self.temperature) {
             // k Ṫ integrated exactly: k times the change of T.
             dtheta += m.gyro_angle_from_change(h.temperature_c(t) - h.temperature_c(t_prev));
@@ -431,26 +442,26 @@ impl Simulator {
         // ∫ ḃ t dt over the interval.
         dtheta += self.drift_gyro * (0.5 * (t * t - t_prev * t_prev));
         if let Some(g) = self.g_sens {
-            dtheta += g * gi.f;
+            dtheta += g * int_f;
         }
         if let Some(asym) = self.asym {
-            dtheta += asym.component_mul(&gi.abs_omega);
+            dtheta += asym.component_mul(&int_abs_omega);
         }
 
-        let (ta, tb) = (t_prev - self.delay, t - self.delay);
-        let ai = self.accel_integrals(ta, tb);
         // A lagging accelerometer channel lags in temperature too: its
         // parameters are those of the interval it integrates.
-        let p = if self.delay != 0.0 && self.thermal.is_some() {
-            self.params_over(ta, tb)
-        } else {
-            p
-        };
-        let i_ka = Matrix3::identity() + p.k_a();
-        let (b_a, d_a) = (p.b_a(), p.d_a());
+        let (ta, tb) = (t_prev - self.delay, t - self.delay);
         let mut dv = Vector3::zeros();
-        for i in 0..3 {
-            dv[i] = i_ka.row(i).dot(&ai.a[i].transpose()) + b_a[i] * dt + d_a[i] * ai.a_sq[i];
+        let edges = self.thermal_pieces(ta, tb);
+        for w in edges.windows(2) {
+            let len = if edges.len() == 2 { dt } else { w[1] - w[0] };
+            let ai = self.accel_integrals(w[0], w[1]);
+            let p = self.params_over(w[0], w[1]);
+            let i_ka = Matrix3::identity() + p.k_a();
+            let (b_a, d_a) = (p.b_a(), p.d_a());
+            for i in 0..3 {
+                dv[i] += i_ka.row(i).dot(&ai.a[i].transpose()) + b_a[i] * len + d_a[i] * ai.a_sq[i];
+            }
         }
         dv += self.drift_accel * (0.5 * (tb * tb - ta * ta));
 
@@ -459,6 +470,23 @@ impl Simulator {
             dtheta: dtheta.into(),
             dv: dv.into(),
         }
+    }
+
+    /// Edges of the pieces of [ta, tb] on which T(t) is linear: the
+    /// interval cut where a temperature ramp starts or stops, so that the
+    /// parameters' midpoint rule (`params_over`) never straddles a kink,
+    /// where it would be off by p1 ΔṪ Δt² / 8.
+    fn thermal_pieces(&self, ta: f64, tb: f64) -> Vec<f64> {
+        let mut edges = vec![ta];
+        if let (Some(_), Some(h)) = (&self.thermal, &self.temperature) {
+            let mut u = ta;
+            while let Some(b) = h.next_break_after(u).filter(|b| *b < tb) {
+                edges.push(b);
+                u = b;
+            }
+        }
+        edges.push(tb);
+        edges
     }
 }
 
