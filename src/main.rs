@@ -2,7 +2,7 @@
 
 mod cli_compensate;
 mod cli_noise;
-mod cli_thermal;
+mod cli_simulate_thermal;
 
 use std::path::PathBuf;
 
@@ -286,7 +286,7 @@ struct SimulateArgs {
     #[arg(long, default_value_t = Site::REFERENCE.height_m)]
     height: f64,
     #[command(flatten)]
-    thermal: cli_thermal::ThermalArgs,
+    thermal: cli_simulate_thermal::ThermalArgs,
 }
 
 fn scheme_ref(arg: &str) -> anyhow::Result<SchemeRef> {

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 use super::data::DataFormat;
 use crate::model::thermal::PLAUSIBLE_C;
-use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalModel};
+use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::Site;
 use crate::sim::{Noise, SchemeRef, SimConfig};
 
@@ -202,7 +202,7 @@ pub struct Truth {
     pub seed: u64,
     /// SPEC §3a: how the parameters move with temperature.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub thermal: Option<ThermalModel>,
+    pub thermal: Option<ThermalTruth>,
     /// SPEC §3a: the unit's temperature through the run (a bare number:
     /// a soak).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -9,6 +9,6 @@ pub mod units;
 
 pub use effects::Effects;
 pub use params::{ErrorParameters, Group, ParameterInfo, N_PARAMS, PARAMETERS};
-pub use thermal::{TemperatureHistory, ThermalModel};
+pub use thermal::{TemperatureHistory, ThermalTruth};
 pub mod error_model;
 pub use error_model::Compensator;

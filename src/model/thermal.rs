@@ -43,7 +43,7 @@ pub enum ThermalError {
 /// A parameter absent from a term has a zero coefficient.
 #[derive(Clone, Copy, Debug, PartialEq, Default, Serialize, Deserialize)]
 #[serde(try_from = "ThermalJson", into = "ThermalJson")]
-pub struct ThermalModel {
+pub struct ThermalTruth {
     /// p1 per parameter in canonical order, canonical unit per °C.
     linear: [f64; N_PARAMS],
     /// p2 per parameter in canonical order, canonical unit per °C².
@@ -99,16 +99,16 @@ fn named(values: &[f64; N_PARAMS]) -> BTreeMap<String, f64> {
         .collect()
 }
 
-impl TryFrom<ThermalJson> for ThermalModel {
+impl TryFrom<ThermalJson> for ThermalTruth {
     type Error = ThermalError;
 
     fn try_from(j: ThermalJson) -> Result<Self, ThermalError> {
-        ThermalModel::from_canonical(&j.linear, &j.quadratic, j.gyro_bias_rate)
+        ThermalTruth::from_canonical(&j.linear, &j.quadratic, j.gyro_bias_rate)
     }
 }
 
-impl From<ThermalModel> for ThermalJson {
-    fn from(m: ThermalModel) -> Self {
+impl From<ThermalTruth> for ThermalJson {
+    fn from(m: ThermalTruth) -> Self {
         ThermalJson {
             linear: named(&m.linear),
             quadratic: named(&m.quadratic),
@@ -117,7 +117,7 @@ impl From<ThermalModel> for ThermalJson {
     }
 }
 
-impl ThermalModel {
+impl ThermalTruth {
     /// From coefficients by canonical name (canonical unit per °C and per
     /// °C²) and k in deg/h per (°C/min). Names are checked; absent names
     /// have zero coefficients.
@@ -129,7 +129,7 @@ impl ThermalModel {
         if !gyro_bias_rate.iter().all(|k| k.is_finite()) {
             return Err(ThermalError::BiasRateNotFinite);
         }
-        Ok(ThermalModel {
+        Ok(ThermalTruth {
             linear: coefficients("linear", linear)?,
             quadratic: coefficients("quadratic", quadratic)?,
             gyro_bias_rate,
@@ -443,42 +443,42 @@ mod tests {
     fn spec_thermal_example_reads_and_writes_back() {
         let json = r#"{"linear": {"gyro_bias_x": 0.001, "accel_scale_z": -0.5},
                        "quadratic": {"accel_bias_y": 0.02}, "gyro_bias_rate": [0.01, 0, -0.02]}"#;
-        let m: ThermalModel = serde_json::from_str(json).unwrap();
+        let m: ThermalTruth = serde_json::from_str(json).unwrap();
         assert_eq!(m.linear(0), 0.001);
         assert_eq!(m.linear(index_of("accel_scale_z").unwrap()), -0.5);
         assert_eq!(m.quadratic(index_of("accel_bias_y").unwrap()), 0.02);
-        let back: ThermalModel = serde_json::from_value(serde_json::to_value(m).unwrap()).unwrap();
+        let back: ThermalTruth = serde_json::from_value(serde_json::to_value(m).unwrap()).unwrap();
         assert_eq!(back, m);
-        assert!(serde_json::from_str::<ThermalModel>("{}")
+        assert!(serde_json::from_str::<ThermalTruth>("{}")
             .unwrap()
             .is_zero());
     }
 
     #[test]
     fn unknown_names_and_fields_and_non_finite_rates_are_refused() {
-        let err = serde_json::from_str::<ThermalModel>(r#"{"linear": {"gyro_bias_w": 1}}"#)
+        let err = serde_json::from_str::<ThermalTruth>(r#"{"linear": {"gyro_bias_w": 1}}"#)
             .unwrap_err()
             .to_string();
         assert!(err.contains("gyro_bias_w"), "{err}");
-        assert!(serde_json::from_str::<ThermalModel>(r#"{"cubic": {}}"#).is_err());
+        assert!(serde_json::from_str::<ThermalTruth>(r#"{"cubic": {}}"#).is_err());
         let nan = f64::NAN;
         let map = BTreeMap::from([("gyro_scale_x".to_string(), nan)]);
         assert_eq!(
-            ThermalModel::from_canonical(&map, &BTreeMap::new(), [0.0; 3]),
+            ThermalTruth::from_canonical(&map, &BTreeMap::new(), [0.0; 3]),
             Err(ThermalError::NotFinite {
                 term: "linear",
                 name: "gyro_scale_x".into()
             })
         );
         assert_eq!(
-            ThermalModel::from_canonical(&BTreeMap::new(), &BTreeMap::new(), [0.0, nan, 0.0]),
+            ThermalTruth::from_canonical(&BTreeMap::new(), &BTreeMap::new(), [0.0, nan, 0.0]),
             Err(ThermalError::BiasRateNotFinite)
         );
     }
 
     #[test]
     fn parameters_move_by_the_polynomial_in_canonical_units() {
-        let m: ThermalModel = serde_json::from_str(
+        let m: ThermalTruth = serde_json::from_str(
             r#"{"linear": {"gyro_bias_x": 0.002, "accel_bias_z": 3},
                 "quadratic": {"accel_bias_z": 0.1}}"#,
         )
@@ -497,7 +497,7 @@ mod tests {
 
     #[test]
     fn the_rate_term_integrates_exactly_to_the_change_in_temperature() {
-        let m = ThermalModel::from_canonical(&BTreeMap::new(), &BTreeMap::new(), [1.0, 0.0, -2.0])
+        let m = ThermalTruth::from_canonical(&BTreeMap::new(), &BTreeMap::new(), [1.0, 0.0, -2.0])
             .unwrap();
         // 0.5 °C/min for 120 s is 1 °C.
         let rate = m.gyro_bias_from_rate(0.5) * 120.0;

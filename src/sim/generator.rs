@@ -35,7 +35,7 @@ use super::scheme::Scheme;
 use super::trajectory::{Kinematics, Motion, Trajectory};
 use crate::model::thermal::REFERENCE_C;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalModel};
+use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::attitude::rotvec_to_dcm;
 use crate::nav::Site;
 use crate::record::Record;
@@ -85,7 +85,7 @@ pub struct SimConfig {
     pub seed: u64,
     /// SPEC §3a: how the parameters move with temperature; `params` are
     /// then the values at 25 °C. `None`: they do not move.
-    pub thermal: Option<ThermalModel>,
+    pub thermal: Option<ThermalTruth>,
     /// SPEC §3a: the unit's temperature through the run. `None`: 25 °C,
     /// and the run states no temperature.
     pub temperature: Option<TemperatureHistory>,
@@ -184,7 +184,7 @@ pub struct Simulator {
     asym: Option<Vector3<f64>>,
     drift_gyro: Vector3<f64>,
     drift_accel: Vector3<f64>,
-    thermal: Option<ThermalModel>,
+    thermal: Option<ThermalTruth>,
     temperature: Option<TemperatureHistory>,
     hint: usize,
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use anyhow::bail;
 use sinscal::io::meta::read_json;
-use sinscal::model::{TemperatureHistory, ThermalModel};
+use sinscal::model::{TemperatureHistory, ThermalTruth};
 use sinscal::sim::SimConfig;
 
 #[derive(clap::Args)]
@@ -27,7 +27,7 @@ pub struct ThermalArgs {
 #[serde(deny_unknown_fields)]
 struct ThermalFile {
     #[serde(default)]
-    thermal: Option<ThermalModel>,
+    thermal: Option<ThermalTruth>,
     #[serde(default)]
     temperature: Option<TemperatureHistory>,
 }
