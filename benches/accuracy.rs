@@ -179,6 +179,8 @@ fn main() {
             noise,
             initial_attitude_error_deg: start,
             seed,
+            thermal: None,
+            temperature: None,
         };
         let opts = EstimateOptions {
             noise: known_noise.then_some(NoiseDensity {

@@ -43,6 +43,7 @@ fn write_run(path: &Path, format: DataFormat, gzip: bool, n: usize) {
     let options = WriteOptions {
         gzip,
         comments: vec!["synthetic run for the io_read benchmark".into()],
+        temperature_column: false,
     };
     let options = if format == DataFormat::F64le {
         WriteOptions::default()

@@ -36,6 +36,8 @@ fn sim(seed: u64) -> SimConfig {
         },
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed,
+        thermal: None,
+        temperature: None,
     }
 }
 

@@ -25,6 +25,8 @@ fn config(scheme: &str, effects: Effects) -> SimConfig {
         noise: Noise::default_navigation_grade(),
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed: 1,
+        thermal: None,
+        temperature: None,
     }
 }
 

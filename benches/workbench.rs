@@ -184,6 +184,8 @@ async fn calibrated_run(
         },
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed: 1,
+        thermal: None,
+        temperature: None,
     };
     let files = write_simulated_run(&cfg, dir, DataFormat::F64le, false, "RLG-RUN").unwrap();
     let form = reqwest::multipart::Form::new()

@@ -2,6 +2,7 @@
 
 mod cli_compensate;
 mod cli_noise;
+mod cli_simulate_thermal;
 mod cli_thermal;
 
 use std::path::PathBuf;
@@ -289,6 +290,8 @@ struct SimulateArgs {
     longitude: f64,
     #[arg(long, default_value_t = Site::REFERENCE.height_m)]
     height: f64,
+    #[command(flatten)]
+    thermal: cli_simulate_thermal::ThermalArgs,
 }
 
 fn scheme_ref(arg: &str) -> anyhow::Result<SchemeRef> {
@@ -307,6 +310,7 @@ fn simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
         cfg.scheme = Scheme::by_hand(&cfg.scheme, seed, &HandTurns::default())
             .map_err(anyhow::Error::msg)?;
     }
+    a.thermal.apply(&mut cfg)?;
     Ok(cfg)
 }
 
@@ -352,6 +356,8 @@ fn nominal_simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
         },
         initial_attitude_error_deg: attitude,
         seed: a.seed,
+        thermal: None,
+        temperature: None,
     })
 }
 

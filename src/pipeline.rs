@@ -24,6 +24,9 @@ pub struct FileSource {
     pub format: DataFormat,
     pub sample_rate_hz: f64,
     pub limits: ReadLimits,
+    /// f64le: each record carries `temp_c` (the metadata's
+    /// `temperature_column`).
+    pub temperature_column: bool,
 }
 
 impl FileSource {
@@ -35,6 +38,7 @@ impl FileSource {
             format: meta.format,
             sample_rate_hz: meta.sample_rate_hz,
             limits: ReadLimits::default(),
+            temperature_column: meta.temperature_column,
         };
         let run = RunInfo {
             site: meta.site(),
@@ -54,7 +58,8 @@ impl RecordSource for FileSource {
             self.sample_rate_hz,
             self.limits,
         )
-        .map_err(|e| CalibError::Source(e.to_string()))?;
+        .map_err(|e| CalibError::Source(e.to_string()))?
+        .with_temperature_column(self.temperature_column);
         Ok(Box::new(
             reader.map(|r| r.map_err(|e| CalibError::Source(e.to_string()))),
         ))
@@ -71,9 +76,39 @@ pub fn calibrate_file(
 ) -> Result<CalibrationResult, CalibError> {
     let (source, run) = FileSource::of_run(data, meta);
     let mut result = calib::estimate(&source, &run, opts, progress, cancel)?;
-    // A soaked run states its temperature once, in its metadata.
-    result.temperature = meta.temperature_c.map(RunTemperature::soaked);
+    // A soaked run states its temperature once, in its metadata; a run
+    // with a temp_c column, record by record.
+    result.temperature = match meta.temperature_c {
+        Some(t) => Some(RunTemperature::soaked(t)),
+        None => column_temperature(&source)?,
+    };
     Ok(result)
+}
+
+/// The run's temperature from its `temp_c` column: one more streaming pass,
+/// made only when the header (CSV) or the metadata (f64le) says there is a
+/// column.
+fn column_temperature(source: &FileSource) -> Result<Option<RunTemperature>, CalibError> {
+    let mut reader = RecordReader::open_with_limits(
+        &source.path,
+        source.format,
+        source.sample_rate_hz,
+        source.limits,
+    )
+    .map_err(|e| CalibError::Source(e.to_string()))?
+    .with_temperature_column(source.temperature_column);
+    if !reader.has_temperature() {
+        return Ok(None);
+    }
+    for record in reader.by_ref() {
+        record.map_err(|e| CalibError::Source(e.to_string()))?;
+    }
+    Ok(reader.temperature_summary().map(|t| RunTemperature {
+        mean_c: t.mean_c,
+        min_c: t.min_c,
+        max_c: t.max_c,
+        max_rate_c_per_min: t.max_rate_c_per_min.unwrap_or(0.0),
+    }))
 }
 
 /// Diagnoses the run in `data` described by `meta`: the one
@@ -167,6 +202,9 @@ pub fn compensate_file(
     })?;
     let mut out_meta = meta.clone();
     out_meta.format = target.format;
+    // A CSV input states its column in its header; the output's f64le
+    // needs the metadata to say it.
+    out_meta.temperature_column = records.1;
     let applied = serde_json::to_value(file).map_err(|source| MetaError::Json {
         what: "compensation".into(),
         source,
@@ -176,7 +214,7 @@ pub fn compensate_file(
     Ok(CompensatedRun {
         data: target.data.clone(),
         metadata,
-        records,
+        records: records.0,
     })
 }
 
@@ -201,8 +239,10 @@ fn write_compensated(
     meta: &RunMetadata,
     file: &CompensationFile,
     target: &CompensateTarget,
-) -> Result<u64, CompensateError> {
-    let reader = RecordReader::open(data, meta.format, meta.sample_rate_hz)?;
+) -> Result<(u64, bool), CompensateError> {
+    let reader = RecordReader::open(data, meta.format, meta.sample_rate_hz)?
+        .with_temperature_column(meta.temperature_column);
+    let temperature_column = reader.has_temperature();
     let options = if target.format == DataFormat::Csv {
         let p = &file.provenance;
         WriteOptions {
@@ -217,11 +257,13 @@ fn write_compensated(
                     .map_or(String::new(), |id| format!(", run {id}")),
                 meta.unit_serial
             )],
+            temperature_column,
         }
     } else {
         WriteOptions {
             gzip: target.gzip,
             comments: Vec::new(),
+            temperature_column,
         }
     };
     let write_err = |source| CompensateError::Write {
@@ -231,10 +273,17 @@ fn write_compensated(
     let mut writer =
         RecordWriter::create(&target.data, target.format, &options).map_err(write_err)?;
     let mut records = 0;
-    for rec in Compensated::new(reader, &file.parameters(), meta.sample_rate_hz) {
-        writer.write_record(&rec?).map_err(write_err)?;
+    // The temperature column, if any, passes through unchanged.
+    let mut compensated = Compensated::new(reader, &file.parameters(), meta.sample_rate_hz);
+    while let Some(rec) = compensated.next() {
+        let rec = rec?;
+        match compensated.inner().temperature_c() {
+            Some(temp_c) => writer.write_record_with_temperature(&rec, temp_c),
+            None => writer.write_record(&rec),
+        }
+        .map_err(write_err)?;
         records += 1;
     }
     writer.finish().map_err(write_err)?;
-    Ok(records)
+    Ok((records, temperature_column))
 }

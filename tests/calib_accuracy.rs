@@ -31,6 +31,8 @@ fn config(
         noise: Noise::default_navigation_grade(),
         initial_attitude_error_deg: attitude,
         seed,
+        thermal: None,
+        temperature: None,
     }
 }
 

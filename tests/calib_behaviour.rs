@@ -22,6 +22,8 @@ fn short_run(scheme: Scheme) -> SimConfig {
         noise: Noise::default_navigation_grade(),
         initial_attitude_error_deg: [0.0; 3],
         seed: 5,
+        thermal: None,
+        temperature: None,
     }
 }
 

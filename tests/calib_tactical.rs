@@ -52,6 +52,8 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
                 (97.0 * k) % 360.0,
             ],
             seed,
+            thermal: None,
+            temperature: None,
         };
         let res = calibrate_simulated(&cfg, &opts).unwrap();
         for (i, p) in PARAMETERS.iter().enumerate() {
@@ -94,6 +96,8 @@ fn measured_noise_is_the_simulated_noise_when_turns_start_between_blocks() {
             noise,
             initial_attitude_error_deg: [0.1, -0.1, 2.0],
             seed,
+            thermal: None,
+            temperature: None,
         };
         let scan = prescan(
             &SimSource(cfg),

@@ -458,3 +458,147 @@ fn thermal_fits_results_at_their_temperatures() {
     assert_eq!(model["range_c"], serde_json::json!([0.0, 50.0]));
     assert_eq!(model["check"]["adequate"], true);
 }
+
+#[test]
+fn simulate_writes_a_ramp_as_the_temp_c_column_and_a_soak_as_metadata() {
+    let dir = tempfile::tempdir().unwrap();
+    let thermal = dir.path().join("thermal.json");
+    std::fs::write(
+        &thermal,
+        r#"{"thermal": {"linear": {"gyro_bias_x": 0.01, "accel_bias_z": 5}, "gyro_bias_rate": [0.02, 0, 0]},
+            "temperature": {"start_c": 20, "rate_c_per_min": 0.5, "max_c": 21}}"#,
+    )
+    .unwrap();
+    let base = [
+        "simulate",
+        "--scheme",
+        "ten-position",
+        "--dwell",
+        "20",
+        "--params",
+        "paper",
+        "--rate",
+        "20",
+    ];
+    for format in ["csv", "f64le"] {
+        let out = dir.path().join(format!("ramp-{format}"));
+        stdout_of(
+            sinscal()
+                .args(base)
+                .args(["--format", format, "--thermal"])
+                .arg(&thermal)
+                .arg("--out")
+                .arg(&out),
+        );
+        let meta: RunMetadata = read_json(&out.join("run.json")).unwrap();
+        assert_eq!(meta.temperature_c, None);
+        assert_eq!(meta.temperature_column, format == "f64le");
+        let truth: Truth = read_json(&out.join("truth.json")).unwrap();
+        assert!(truth.thermal.is_some() && truth.temperature.is_some());
+        let data = out.join(if format == "csv" {
+            "run.csv"
+        } else {
+            "run.bin"
+        });
+        let mut reader = RecordReader::open(&data, meta.format, 20.0)
+            .unwrap()
+            .with_temperature_column(meta.temperature_column);
+        let got: Vec<_> = reader.by_ref().collect::<Result<_, _>>().unwrap();
+        // The truth states the parameters in canonical units, so the
+        // records it gives agree with the run to rounding, not to the bit.
+        let expected: Vec<_> = simulate(&truth.to_sim_config().unwrap()).unwrap().collect();
+        assert_eq!(got.len(), expected.len());
+        for (a, b) in got.iter().zip(&expected) {
+            assert_eq!(a.t, b.t);
+            for i in 0..3 {
+                assert!((a.dtheta[i] - b.dtheta[i]).abs() < 1e-15, "{a:?} {b:?}");
+                assert!((a.dv[i] - b.dv[i]).abs() < 1e-13, "{a:?} {b:?}");
+            }
+        }
+        let s = reader.temperature_summary().unwrap();
+        assert!((s.min_c - (20.0 + 0.5 / 60.0 * 0.05)).abs() < 1e-12);
+        assert_eq!(s.max_c, 21.0);
+        // Two 60 s windows inside the 120 s ramp see its rate.
+        let rate = s.max_rate_c_per_min.unwrap();
+        assert!((rate - 0.5).abs() < 1e-9, "{rate}");
+    }
+    let out = dir.path().join("soak");
+    stdout_of(
+        sinscal()
+            .args(base)
+            .args(["--temperature-c", "-20"])
+            .arg("--out")
+            .arg(&out),
+    );
+    let meta: RunMetadata = read_json(&out.join("run.json")).unwrap();
+    assert_eq!(meta.temperature_c, Some(-20.0));
+    assert!(!meta.temperature_column);
+    let header = std::fs::read_to_string(out.join("run.csv")).unwrap();
+    assert!(header.contains("\nt,dthx,dthy,dthz,dvx,dvy,dvz\n"));
+}
+
+/// A run with a `temp_c` column (a chamber ramp, CSV and f64le) is
+/// calibrated with its temperature summary in the result: start, end and
+/// the ramp's rate; a soak's result carries its metadata temperature.
+#[test]
+fn calibrate_keeps_the_run_s_temperature() {
+    let dir = tempfile::tempdir().unwrap();
+    let thermal = dir.path().join("thermal.json");
+    std::fs::write(
+        &thermal,
+        r#"{"temperature": {"start_c": 10, "rate_c_per_min": 1.0, "max_c": 14}}"#,
+    )
+    .unwrap();
+    for (format, file) in [("csv", "run.csv"), ("f64le", "run.bin")] {
+        let out = dir.path().join(format);
+        stdout_of(
+            sinscal()
+                .args(["simulate", "--scheme", "ten-position", "--dwell", "30"])
+                .args(["--params", "paper", "--rate", "20", "--format", format])
+                .arg("--thermal")
+                .arg(&thermal)
+                .arg("--out")
+                .arg(&out),
+        );
+        let result = out.join("result.json");
+        stdout_of(
+            sinscal()
+                .arg("calibrate")
+                .arg(out.join(file))
+                .arg("--out")
+                .arg(&result),
+        );
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+        let t = &r["temperature"];
+        assert!(
+            (t["min_c"].as_f64().unwrap() - 10.0).abs() < 0.01,
+            "{format}: {t}"
+        );
+        assert!(
+            (t["max_c"].as_f64().unwrap() - 14.0).abs() < 0.01,
+            "{format}: {t}"
+        );
+        let rate = t["max_rate_c_per_min"].as_f64().unwrap();
+        assert!((rate - 1.0).abs() < 0.05, "{format}: {t}");
+    }
+    let soak = dir.path().join("soak");
+    stdout_of(
+        sinscal()
+            .args(["simulate", "--scheme", "ten-position", "--dwell", "30"])
+            .args(["--params", "paper", "--rate", "20", "--temperature-c", "-5"])
+            .arg("--out")
+            .arg(&soak),
+    );
+    let result = soak.join("result.json");
+    stdout_of(
+        sinscal()
+            .arg("calibrate")
+            .arg(soak.join("run.csv"))
+            .arg("--out")
+            .arg(&result),
+    );
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+    assert_eq!(r["temperature"]["mean_c"], -5.0);
+    assert_eq!(r["temperature"]["max_rate_c_per_min"], 0.0);
+}

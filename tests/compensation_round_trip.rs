@@ -46,6 +46,8 @@ fn config(
         noise,
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed: 7,
+        thermal: None,
+        temperature: None,
     }
 }
 

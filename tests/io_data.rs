@@ -122,6 +122,7 @@ fn write_csv(path: &Path, records: &[Record], gzip: bool) {
             "unit RLG-0042".into(),
             "written by the io_data tests".into(),
         ],
+        temperature_column: false,
     };
     let mut w = CsvWriter::new(fs::File::create(path).expect("create"), &options);
     for r in records {
@@ -752,4 +753,205 @@ fn readers_and_errors_can_move_to_worker_threads() {
     send::<RecordReader<fs::File>>();
     send::<RecordWriter<fs::File>>();
     send_sync::<DataError>();
+}
+
+// ---------------------------------------------------------------- temperature
+
+/// `n` records at 100 Hz with a temperature ramping 0.5 °C/min from 20 °C
+/// plus ±0.01 °C of alternating sensor noise.
+fn with_temperature(n: usize) -> Vec<(Record, f64)> {
+    sample_records(n)
+        .into_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let noise = if i % 2 == 0 { 0.01 } else { -0.01 };
+            let t = r.t;
+            (r, 20.0 + 0.5 * t / 60.0 + noise)
+        })
+        .collect()
+}
+
+fn write_with_temperature(format: DataFormat, gzip: bool, rows: &[(Record, f64)]) -> Vec<u8> {
+    let options = WriteOptions {
+        gzip,
+        temperature_column: true,
+        ..WriteOptions::default()
+    };
+    let mut w = RecordWriter::new(Vec::new(), format, &options).expect("writer");
+    for (r, c) in rows {
+        w.write_record_with_temperature(r, *c).expect("write");
+    }
+    w.finish().expect("finish")
+}
+
+#[test]
+fn temperature_column_round_trips_in_csv_gzip_and_f64le() {
+    let rows = with_temperature(30_000);
+    let records: Vec<Record> = rows.iter().map(|(r, _)| *r).collect();
+    for (format, gzip) in [
+        (DataFormat::Csv, false),
+        (DataFormat::Csv, true),
+        (DataFormat::F64le, false),
+    ] {
+        let bytes = write_with_temperature(format, gzip, &rows);
+        let mut reader = RecordReader::new(&bytes[..], format, RATE_HZ, ReadLimits::default())
+            .expect("open")
+            .with_temperature_column(true);
+        assert!(reader.has_temperature());
+        let mut read = Vec::new();
+        let mut k = 0;
+        while let Some(r) = reader.next() {
+            read.push(r.expect("record"));
+            k += 1;
+            if k % 997 == 0 {
+                let k = k - 1;
+                assert_eq!(reader.temperature_c(), Some(rows[k].1), "{format} {k}");
+            }
+        }
+        assert_bit_exact(&read, &records);
+        let s = reader.temperature_summary().expect("summary");
+        assert_eq!(s.samples, 30_000);
+        assert!((s.mean_c - 21.25).abs() < 1e-3, "{}", s.mean_c);
+        // The last record with +0.01 °C of noise is at t = 299.99 s.
+        assert!(
+            (s.max_c - (20.0 + 0.5 * 299.99 / 60.0 + 0.01)).abs() < 1e-9,
+            "{}",
+            s.max_c
+        );
+        let rate = s.max_rate_c_per_min.expect("5 min of run");
+        assert!((rate - 0.5).abs() < 1e-6, "{format}: {rate}");
+        let history = reader.temperature_history();
+        assert_eq!(history.len(), 300);
+        assert!((history[100].temp_c - (20.0 + 0.5 * history[100].t_s / 60.0)).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn a_run_without_the_column_has_no_temperature() {
+    let bytes = csv_text(10);
+    let mut reader = RecordReader::new(
+        bytes.as_bytes(),
+        DataFormat::Csv,
+        RATE_HZ,
+        ReadLimits::default(),
+    )
+    .expect("open")
+    // Says nothing for CSV: the header decides.
+    .with_temperature_column(true);
+    assert!(!reader.has_temperature());
+    assert_eq!(reader.by_ref().count(), 10);
+    assert_eq!(reader.temperature_summary(), None);
+    assert!(reader.temperature_history().is_empty());
+    // A rates header with the column.
+    let text = "t,wx,wy,wz,fx,fy,fz,temp_c\n0.01,0,0,0,0,0,9.8,25\n0.02,0,0,0,0,0,9.8,25.5\n";
+    let mut reader = RecordReader::new(
+        text.as_bytes(),
+        DataFormat::Csv,
+        RATE_HZ,
+        ReadLimits::default(),
+    )
+    .expect("open");
+    assert_eq!(reader.by_ref().count(), 2);
+    assert_eq!(reader.kind(), DataKind::Rates);
+    assert_eq!(reader.temperature_c(), Some(25.5));
+}
+
+#[test]
+fn f64le_with_the_column_read_without_it_is_refused() {
+    // Three 64-byte records read as 56-byte ones: the times do not follow.
+    let bytes = write_with_temperature(DataFormat::F64le, false, &with_temperature(3));
+    assert!(read_bytes(&bytes, DataFormat::F64le).is_err());
+    // Two and a half records.
+    let cut = &bytes[..2 * 64 + 32];
+    let err = RecordReader::new(cut, DataFormat::F64le, RATE_HZ, ReadLimits::default())
+        .unwrap()
+        .with_temperature_column(true)
+        .collect::<Result<Vec<_>, _>>()
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("32 trailing bytes, not a whole 64-byte record"),
+        "{err}"
+    );
+    assert_eq!(
+        err.position(),
+        Some(Position::Record {
+            number: 3,
+            byte_offset: 128
+        })
+    );
+}
+
+#[test]
+fn bad_temperatures_are_refused_naming_line_or_record() {
+    let header = format!("{HEADER},temp_c\n");
+    let line = |t: &str| format!("{header}0.01,0,0,0,0,0,0.098,25\n0.02,0,0,0,0,0,0.098,{t}\n");
+    let err = csv_error(&line("nan"));
+    assert!(
+        err.contains("line 3") && err.contains("8 (temp_c)"),
+        "{err}"
+    );
+    let err = csv_error(&line("250"));
+    assert!(
+        err.contains("line 3") && err.contains("8 (temp_c)") && err.contains("250"),
+        "{err}"
+    );
+    let err = csv_error(&line("-120.5"));
+    assert!(err.contains("line 3") && err.contains("-120.5"), "{err}");
+    let err = csv_error(&format!("{header}0.01,0,0,0,0,0,0.098\n"));
+    assert!(err.contains("line 2: expected 8 columns, found 7"), "{err}");
+    let err = csv_error(&format!("{header}0.01,0,0,0,0,0,0.098,warm\n"));
+    assert!(err.contains("line 2") && err.contains("temp_c"), "{err}");
+    let err = csv_error(&format!("{HEADER}\n0.01,0,0,0,0,0,0.098,25\n"));
+    assert!(err.contains("line 2: expected 7 columns, found 8"), "{err}");
+
+    let mut rows = with_temperature(4);
+    rows[2].1 = 1e6;
+    // Written by hand: the writer refuses it.
+    let mut bytes = Vec::new();
+    for (r, c) in &rows {
+        for v in [
+            r.t,
+            r.dtheta[0],
+            r.dtheta[1],
+            r.dtheta[2],
+            r.dv[0],
+            r.dv[1],
+            r.dv[2],
+            *c,
+        ] {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    let err = RecordReader::new(
+        &bytes[..],
+        DataFormat::F64le,
+        RATE_HZ,
+        ReadLimits::default(),
+    )
+    .unwrap()
+    .with_temperature_column(true)
+    .collect::<Result<Vec<_>, _>>()
+    .unwrap_err();
+    assert!(
+        matches!(err, DataError::Temperature { value, .. } if value == 1e6),
+        "{err}"
+    );
+    assert!(
+        err.to_string().contains("record 3 (byte offset 128)"),
+        "{err}"
+    );
+    bytes[3 * 64 - 8..3 * 64].copy_from_slice(&f64::INFINITY.to_le_bytes());
+    let err = RecordReader::new(
+        &bytes[..],
+        DataFormat::F64le,
+        RATE_HZ,
+        ReadLimits::default(),
+    )
+    .unwrap()
+    .with_temperature_column(true)
+    .collect::<Result<Vec<_>, _>>()
+    .unwrap_err();
+    assert!(matches!(err, DataError::NonFinite { .. }), "{err}");
+    assert!(err.to_string().contains("temp_c"), "{err}");
 }

@@ -67,6 +67,8 @@ fn plan_for_a_tilted_turned_start_matches_the_filter_on_nav_axis_turns() {
             noise: Noise::default_navigation_grade(),
             initial_attitude_error_deg: attitude,
             seed,
+            thermal: None,
+            temperature: None,
         };
         let res = calibrate_simulated(&cfg, &opts).unwrap();
         for p in PARAMETERS.iter() {

@@ -46,6 +46,8 @@ fn config(scheme: Scheme, params: ErrorParameters, effects: Effects) -> SimConfi
         noise: Noise::default(),
         initial_attitude_error_deg: [0.0; 3],
         seed: 7,
+        thermal: None,
+        temperature: None,
     }
 }
 
@@ -287,4 +289,186 @@ fn scale_asymmetry_integrates_the_rate_magnitude_across_a_zero() {
     let first = deltas[0].1;
     assert!((first.y - a[1] * PPM * w_n * dt).abs() < 1e-22);
     assert!(first.x.abs() < 1e-25);
+}
+
+/// The thermal truth of the temperature checks, in canonical units per °C
+/// and per °C² (SPEC §3a), with k in deg/h per (°C/min).
+const THERMAL_LINEAR: [(&str, f64); 8] = [
+    ("gyro_bias_x", 0.01),
+    ("gyro_bias_z", -0.02),
+    ("gyro_scale_y", 3.0),
+    ("gyro_misalign_xz", 1.5),
+    ("accel_bias_x", 8.0),
+    ("accel_bias_z", -5.0),
+    ("accel_scale_z", 4.0),
+    ("accel_misalign_zx", 2.0),
+];
+const THERMAL_QUADRATIC: [(&str, f64); 3] = [
+    ("gyro_bias_y", 0.001),
+    ("accel_bias_z", 0.2),
+    ("accel_quad_z", 0.5),
+];
+const GYRO_BIAS_RATE: [f64; 3] = [0.05, -0.03, 0.02];
+
+/// The temperature of the check, written out here: from 10 °C at 1 °C/s
+/// until 16.005 °C (mid-record, mid-turn), then held.
+const RAMP_END_S: f64 = 6.005;
+fn ramp_c(t: f64) -> f64 {
+    10.0 + t.clamp(0.0, RAMP_END_S)
+}
+fn ramp_rate_c_per_min(t: f64) -> f64 {
+    if (0.0..RAMP_END_S).contains(&t) {
+        60.0
+    } else {
+        0.0
+    }
+}
+
+/// p(T) as SPEC §3a states it, from the canonical maps above.
+fn params_at(p25: &ErrorParameters, temp_c: f64) -> ErrorParameters {
+    let d = temp_c - 25.0;
+    let mut map = p25.to_canonical();
+    for (name, p1) in THERMAL_LINEAR {
+        *map.get_mut(name).unwrap() += p1 * d;
+    }
+    for (name, p2) in THERMAL_QUADRATIC {
+        *map.get_mut(name).unwrap() += p2 * d * d;
+    }
+    ErrorParameters::from_canonical(&map).unwrap()
+}
+
+/// The turn about y of `one_turn(Axis::Y, 90, 1)`, in closed form: angle
+/// and rate (rad, rad/s) at t.
+fn y_turn(t: f64) -> (f64, f64) {
+    let (a, w) = (20.0 * DEG, 10.0 * DEG);
+    match t {
+        t if t <= 1.0 => (0.0, 0.0),
+        t if t <= 1.5 => (0.5 * a * (t - 1.0).powi(2), a * (t - 1.0)),
+        t if t <= 10.0 => (cruise_angle(t, 1.0), w),
+        t if t <= 10.5 => {
+            let u = t - 10.0;
+            (87.5 * DEG + w * u - 0.5 * a * u * u, w - a * u)
+        }
+        _ => (90.0 * DEG, 0.0),
+    }
+}
+
+/// Composite Simpson's rule with `n` (even) panels of a 6-vector integrand.
+fn simpson(a: f64, b: f64, n: usize, f: &impl Fn(f64) -> [f64; 6]) -> [f64; 6] {
+    let h = (b - a) / n as f64;
+    let mut sum = [0.0; 6];
+    for i in 0..=n {
+        let w = if i == 0 || i == n {
+            1.0
+        } else if i % 2 == 1 {
+            4.0
+        } else {
+            2.0
+        };
+        let v = f(a + i as f64 * h);
+        for (s, v) in sum.iter_mut().zip(v) {
+            *s += w * v;
+        }
+    }
+    sum.map(|s| s * h / 3.0)
+}
+
+#[test]
+fn a_temperature_ramp_matches_simpson_integrals_of_the_thermal_model() {
+    let p25 = ErrorParameters::paper();
+    let linear: String = THERMAL_LINEAR
+        .iter()
+        .map(|(n, v)| format!("\"{n}\": {v}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let quadratic: String = THERMAL_QUADRATIC
+        .iter()
+        .map(|(n, v)| format!("\"{n}\": {v}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let thermal = format!(
+        r#"{{"linear": {{{linear}}}, "quadratic": {{{quadratic}}}, "gyro_bias_rate": {GYRO_BIAS_RATE:?}}}"#
+    );
+    let mut cfg = config(one_turn(Axis::Y, 90.0, 1.0), p25, Effects::none());
+    cfg.thermal = Some(serde_json::from_str(&thermal).unwrap());
+    cfg.temperature = Some(
+        serde_json::from_str(&format!(
+            r#"{{"start_c": 10, "rate_c_per_min": 60, "max_c": {}}}"#,
+            10.0 + RAMP_END_S
+        ))
+        .unwrap(),
+    );
+    let recs = records(&cfg);
+    assert_eq!(recs.len(), 1150);
+
+    let (w_n, w_u) = earth();
+    let g = Site::REFERENCE.gravity();
+    // The rates the record integrates at t: (I + K_g(T)) ω + b_g(T) + k Ṫ
+    // and (I + K_a(T)) f + b_a(T) + D_a(T) (f ∘ f); Ṫ is the piece's own,
+    // since the ends of a piece lie on a kink.
+    let integrand = |t: f64, t_dot: f64| {
+        let (th, th_dot) = y_turn(t);
+        let omega = Vector3::new(-w_u * th.sin(), w_n + th_dot, w_u * th.cos());
+        let f = Vector3::new(-g * th.sin(), 0.0, g * th.cos());
+        let p = params_at(&p25, ramp_c(t));
+        let i3 = Matrix3::identity();
+        let k_rate = Vector3::from(GYRO_BIAS_RATE) * (t_dot * DEG_PER_H);
+        let w = (i3 + p.k_g()) * omega + p.b_g() + k_rate;
+        let a = (i3 + p.k_a()) * f + p.b_a() + p.d_a().component_mul(&f.component_mul(&f));
+        [w.x, w.y, w.z, a.x, a.y, a.z]
+    };
+    let dt = 1.0 / RATE_HZ;
+    let (mut worst_th, mut worst_v) = (0.0f64, 0.0f64);
+    for (k, r) in recs.iter().enumerate() {
+        let (ta, tb) = (k as f64 * dt, (k + 1) as f64 * dt);
+        // Simpson needs a smooth integrand: split where Ṫ jumps.
+        let piece = |a: f64, b: f64| {
+            let t_dot = ramp_rate_c_per_min(0.5 * (a + b));
+            simpson(a, b, 16, &|t| integrand(t, t_dot))
+        };
+        let expect = if ta < RAMP_END_S && RAMP_END_S < tb {
+            let (x, y) = (piece(ta, RAMP_END_S), piece(RAMP_END_S, tb));
+            std::array::from_fn(|i| x[i] + y[i])
+        } else {
+            piece(ta, tb)
+        };
+        for i in 0..3 {
+            worst_th = worst_th.max((r.dtheta[i] - expect[i]).abs());
+            worst_v = worst_v.max((r.dv[i] - expect[3 + i]).abs());
+        }
+    }
+    eprintln!("worst record: dθ {worst_th:e} rad, dv {worst_v:e} m/s");
+    assert!(worst_th < 1e-10, "dθ error {worst_th:e} rad");
+    assert!(worst_v < 1e-9, "dv error {worst_v:e} m/s");
+    // The check sees the temperature: without it the records differ by
+    // far more than the tolerance.
+    let cold = records(&config(one_turn(Axis::Y, 90.0, 1.0), p25, Effects::none()));
+    let moved = (Vector3::from(cold[700].dv) - Vector3::from(recs[700].dv)).norm();
+    assert!(moved > 1e-7, "{moved:e}");
+}
+
+#[test]
+fn a_soak_moves_every_record_to_the_parameters_at_its_temperature() {
+    let p25 = ErrorParameters::paper();
+    let mut cfg = config(one_turn(Axis::Z, 90.0, 1.0), p25, Effects::none());
+    cfg.thermal = Some(
+        serde_json::from_str(r#"{"linear": {"accel_bias_x": 10, "gyro_scale_z": 2}}"#).unwrap(),
+    );
+    cfg.temperature = Some(serde_json::from_str("45").unwrap());
+    assert!(!cfg.temperature_column());
+    let hot = records(&cfg);
+    let mut p45 = p25.to_canonical();
+    *p45.get_mut("accel_bias_x").unwrap() += 200.0;
+    *p45.get_mut("gyro_scale_z").unwrap() += 40.0;
+    let plain = records(&config(
+        one_turn(Axis::Z, 90.0, 1.0),
+        ErrorParameters::from_canonical(&p45).unwrap(),
+        Effects::none(),
+    ));
+    for (a, b) in hot.iter().zip(&plain) {
+        for i in 0..3 {
+            assert!((a.dtheta[i] - b.dtheta[i]).abs() < 1e-15);
+            assert!((a.dv[i] - b.dv[i]).abs() < 1e-15);
+        }
+    }
 }

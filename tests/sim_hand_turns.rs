@@ -31,6 +31,8 @@ fn config(scheme: Scheme, rate_hz: f64, params: ErrorParameters, noise: Noise) -
         noise,
         initial_attitude_error_deg: [0.3, -0.2, 25.0],
         seed: 3,
+        thermal: None,
+        temperature: None,
     }
 }
 

@@ -25,6 +25,8 @@ fn navigate(scheme: Scheme, params: ErrorParameters, phi_deg: [f64; 3], rate_hz:
         noise: Noise::default(),
         initial_attitude_error_deg: phi_deg,
         seed: 1,
+        thermal: None,
+        temperature: None,
     };
     let sim = simulate(&cfg).unwrap();
     let traj = sim.trajectory().clone();
@@ -137,6 +139,8 @@ fn navigation_axis_turn_ends_where_the_axis_says() {
         noise: Noise::default(),
         initial_attitude_error_deg: [0.0; 3],
         seed: 0,
+        thermal: None,
+        temperature: None,
     })
     .unwrap();
     let x_b_in_n = sim.trajectory().c_b_n_end() * Vector3::x();

@@ -49,5 +49,7 @@ pub fn reference_run() -> sinscal::sim::SimConfig {
         noise: Noise::default_navigation_grade(),
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed: 1,
+        thermal: None,
+        temperature: None,
     }
 }

@@ -125,7 +125,7 @@ type Sunk = (String, u64, Option<(u64, bool)>);
 fn sink(
     rx: tokio::sync::mpsc::Receiver<Bytes>,
     file: std::fs::File,
-    check: Option<(DataFormat, f64, ReadLimits)>,
+    check: Option<(DataFormat, f64, ReadLimits, bool)>,
     max_cpu: std::time::Duration,
 ) -> Result<Sunk, SinkError> {
     let mut tee = Tee {
@@ -138,8 +138,8 @@ fn sink(
         write_error: None,
     };
     let checked = match check {
-        Some((format, rate, limits)) => {
-            let outcome = count_records(&mut tee, format, rate, limits);
+        Some((format, rate, limits, temperature_column)) => {
+            let outcome = count_records(&mut tee, format, rate, limits, temperature_column);
             if let Some(e) = tee.write_error.take() {
                 return Err(SinkError::Io(e));
             }
@@ -160,8 +160,10 @@ fn count_records(
     format: DataFormat,
     rate: f64,
     limits: ReadLimits,
+    temperature_column: bool,
 ) -> Result<(u64, bool), DataError> {
-    let mut records = RecordReader::new(reader, format, rate, limits)?;
+    let mut records = RecordReader::new(reader, format, rate, limits)?
+        .with_temperature_column(temperature_column);
     let mut n = 0;
     for r in records.by_ref() {
         r?;
@@ -190,7 +192,14 @@ where
 {
     let (pending, file) = RunFiles::new(st.config.data_dir.clone()).create_temp()?;
     let (tx, rx) = tokio::sync::mpsc::channel::<Bytes>(16);
-    let check = meta.map(|m| (m.format, m.sample_rate_hz, read_limits(st)));
+    let check = meta.map(|m| {
+        (
+            m.format,
+            m.sample_rate_hz,
+            read_limits(st),
+            m.temperature_column,
+        )
+    });
     let max_cpu = st.config.upload_max_cpu;
     let task = tokio::task::spawn_blocking(move || sink(rx, file, check, max_cpu));
     let mut received = 0u64;
@@ -455,13 +464,15 @@ async fn receive_multipart(
             read_limits(st),
             st.config.upload_max_cpu,
         );
+        let temperature_column = meta.temperature_column;
         let checked = tokio::task::spawn_blocking(move || {
             let file = std::fs::File::open(&path).map_err(SinkError::Io)?;
             let budgeted = Budgeted {
                 inner: io::BufReader::new(file),
                 budget: CpuBudget::start(max_cpu),
             };
-            count_records(budgeted, format, rate, limits).map_err(SinkError::Data)
+            count_records(budgeted, format, rate, limits, temperature_column)
+                .map_err(SinkError::Data)
         })
         .await
         .map_err(|e| ApiError::Internal(format!("validation task: {e}")))??;

@@ -192,6 +192,8 @@ mod tests {
             noise: Noise::default(),
             initial_attitude_error_deg: [0.2, -0.3, 40.0],
             seed: 0,
+            thermal: None,
+            temperature: None,
         }
     }
 

@@ -63,6 +63,8 @@ impl PlanInput {
             noise: Noise::default(),
             initial_attitude_error_deg: self.initial_attitude_error_deg,
             seed: 0,
+            thermal: None,
+            temperature: None,
         }
     }
 }

@@ -24,6 +24,12 @@ impl<I> Compensated<I> {
             dt_s: 1.0 / sample_rate_hz,
         }
     }
+
+    /// The records being compensated (e.g. a reader, for what it keeps
+    /// beside the records).
+    pub fn inner(&self) -> &I {
+        &self.records
+    }
 }
 
 impl<I, E> Iterator for Compensated<I>

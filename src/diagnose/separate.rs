@@ -148,6 +148,8 @@ fn noise_free_run(
         noise: Noise::default(),
         initial_attitude_error_deg: phi0.map(f64::to_degrees).into(),
         seed: 0,
+        thermal: None,
+        temperature: None,
     }
 }
 

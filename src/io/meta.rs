@@ -9,7 +9,8 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::data::DataFormat;
-use crate::model::{Effects, ErrorParameters};
+use crate::model::thermal::PLAUSIBLE_C;
+use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::Site;
 use crate::sim::{Noise, SchemeRef, SimConfig};
 
@@ -98,8 +99,13 @@ pub struct RunMetadata {
     /// RFC 3339 time of recording, kept as given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub recorded_at: Option<String>,
+    /// A soaked run's temperature, °C (SPEC §3a).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature_c: Option<f64>,
+    /// f64le: each record has an 8th value, the unit's temperature `temp_c`
+    /// (SPEC §5). A CSV file's header says so for itself.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub temperature_column: bool,
     /// The product type the unit is built to (its acceptance limits are
     /// the server's product type of this name).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -146,8 +152,12 @@ impl RunMetadata {
         }
         self.site().validate().map_err(invalid)?;
         if let Some(t) = self.temperature_c {
-            if !t.is_finite() {
-                return Err(invalid("temperature_c is not finite".into()));
+            if !(t.is_finite() && PLAUSIBLE_C.contains(&t)) {
+                return Err(invalid(format!(
+                    "temperature_c {t} is outside {}..{} °C",
+                    PLAUSIBLE_C.start(),
+                    PLAUSIBLE_C.end()
+                )));
             }
         }
         if let Some(s) = &self.scheme {
@@ -190,6 +200,13 @@ pub struct Truth {
     pub scheme: SchemeRef,
     #[serde(default)]
     pub seed: u64,
+    /// SPEC §3a: how the parameters move with temperature.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<ThermalTruth>,
+    /// SPEC §3a: the unit's temperature through the run (a bare number:
+    /// a soak).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub temperature: Option<TemperatureHistory>,
 }
 
 impl Truth {
@@ -228,6 +245,8 @@ impl Truth {
             noise: self.noise,
             initial_attitude_error_deg: self.initial_attitude_error_deg,
             seed: self.seed,
+            thermal: self.thermal,
+            temperature: self.temperature.clone(),
         })
     }
 
@@ -246,6 +265,8 @@ impl Truth {
             initial_attitude_error_deg: cfg.initial_attitude_error_deg,
             scheme: SchemeRef::Inline(cfg.scheme.clone()),
             seed: cfg.seed,
+            thermal: cfg.thermal,
+            temperature: cfg.temperature.clone(),
         }
     }
 }
@@ -324,6 +345,41 @@ mod tests {
         let err = RunMetadata::from_json(meta("\"a/b\"").as_bytes()).unwrap_err();
         assert!(err.to_string().contains("product"), "{err}");
         assert!(RunMetadata::from_json(meta("7").as_bytes()).is_err());
+    }
+
+    #[test]
+    fn temperature_fields_are_checked() {
+        let meta = |extra: &str| {
+            format!(
+                r#"{{"unit_serial": "A1", "sample_rate_hz": 100, "latitude_deg": 0,
+                    "longitude_deg": 0, "height_m": 0{extra}}}"#
+            )
+        };
+        let m = RunMetadata::from_json(meta("").as_bytes()).unwrap();
+        assert!(!m.temperature_column);
+        assert!(!serde_json::to_string(&m).unwrap().contains("temperature"));
+        let m = RunMetadata::from_json(
+            meta(r#", "format": "f64le", "temperature_column": true"#).as_bytes(),
+        )
+        .unwrap();
+        assert!(m.temperature_column && m.extra.is_empty());
+        let err = RunMetadata::from_json(meta(r#", "temperature_c": 350"#).as_bytes()).unwrap_err();
+        assert!(err.to_string().contains("temperature_c"), "{err}");
+        assert!(RunMetadata::from_json(meta(r#", "temperature_column": 1"#).as_bytes()).is_err());
+    }
+
+    #[test]
+    fn a_truth_carries_its_thermal_model_and_temperature() {
+        let text = r#"{"sample_rate_hz": 100, "latitude_deg": 28.2, "longitude_deg": 112.9,
+            "height_m": 50, "parameters": {}, "scheme": "ten-position",
+            "thermal": {"linear": {"gyro_bias_x": 0.001}, "gyro_bias_rate": [0.01, 0, 0]},
+            "temperature": {"start_c": 10, "rate_c_per_min": 0.25, "max_c": 60}}"#;
+        let truth: Truth = serde_json::from_str(text).unwrap();
+        assert_eq!(truth.thermal.unwrap().linear(0), 0.001);
+        let back: Truth = serde_json::from_value(serde_json::to_value(&truth).unwrap()).unwrap();
+        assert_eq!(back, truth);
+        let bad = text.replace("gyro_bias_x", "gyro_bias_q");
+        assert!(serde_json::from_str::<Truth>(&bad).is_err());
     }
 
     #[test]

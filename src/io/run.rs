@@ -52,7 +52,9 @@ pub fn metadata_sidecar(data: &Path) -> PathBuf {
 
 /// Simulates `cfg` into `dir` (created if needed): the data streamed to
 /// `run.csv`/`run.csv.gz`/`run.bin`, then `run.json` (metadata for
-/// `unit_serial`) and `truth.json`.
+/// `unit_serial`) and `truth.json`. A run with a temperature history has
+/// the `temp_c` column (T at each record's time); a soaked one states
+/// `temperature_c` in its metadata.
 pub fn write_simulated_run(
     cfg: &SimConfig,
     dir: &Path,
@@ -74,17 +76,26 @@ pub fn write_simulated_run(
             cfg.scheme.name,
             cfg.seed
         )],
+        temperature_column: cfg.temperature_column(),
     };
     let options = if format == DataFormat::F64le {
-        WriteOptions::default()
+        WriteOptions {
+            temperature_column: options.temperature_column,
+            ..WriteOptions::default()
+        }
     } else {
         options
     };
-    let sim = simulate(cfg)?;
+    let mut sim = simulate(cfg)?;
     let mut writer = RecordWriter::create(&data, format, &options).map_err(io_err(&data))?;
     let mut records = 0;
-    for rec in sim {
-        writer.write_record(&rec).map_err(io_err(&data))?;
+    let column = cfg.temperature_column();
+    while let Some(rec) = sim.next() {
+        match sim.temperature_c(rec.t).filter(|_| column) {
+            Some(temp_c) => writer.write_record_with_temperature(&rec, temp_c),
+            None => writer.write_record(&rec),
+        }
+        .map_err(io_err(&data))?;
         records += 1;
     }
     writer.finish().map_err(io_err(&data))?;
@@ -101,7 +112,9 @@ pub fn write_simulated_run(
         station: None,
         operator: None,
         recorded_at: None,
-        temperature_c: None,
+        // A soak is stated once; a history is the column.
+        temperature_c: cfg.temperature.as_ref().and_then(|h| h.soak_c()),
+        temperature_column: column && format == DataFormat::F64le,
         product: None,
         notes: Some("simulated run".into()),
         extra: Default::default(),

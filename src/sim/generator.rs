@@ -15,6 +15,13 @@
 //! - with `accel_delay`, the whole accelerometer channel lags: motion terms,
 //!   lever arms, quadratic terms and bias drift are all evaluated over the
 //!   delayed interval;
+//! - with a thermal model (SPEC §3a) the parameters of each record are
+//!   those at the temperature of its interval's midpoint (the gyro's
+//!   interval, and the accelerometer's own when it lags), and k Ṫ is
+//!   integrated exactly as k (T(t_k) − T(t_k − Δt)); an interval in
+//!   which a ramp starts or stops is cut there and each piece takes its
+//!   own midpoint (`thermal_pieces`); see `params_over` for why the
+//!   midpoint is far below 1e-10 rad of the exact integral;
 //! - noise is drawn from a ChaCha8 stream seeded with `seed`: per record
 //!   three gyro then three accelerometer standard normal deviates.
 
@@ -26,8 +33,9 @@ use serde::{Deserialize, Serialize};
 
 use super::scheme::Scheme;
 use super::trajectory::{Kinematics, Motion, Trajectory};
+use crate::model::thermal::REFERENCE_C;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{Effects, ErrorParameters};
+use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::attitude::rotvec_to_dcm;
 use crate::nav::Site;
 use crate::record::Record;
@@ -75,6 +83,23 @@ pub struct SimConfig {
     /// Rotation vector φ in n, degrees: C_b^n(0) = exp([φ×]).
     pub initial_attitude_error_deg: [f64; 3],
     pub seed: u64,
+    /// SPEC §3a: how the parameters move with temperature; `params` are
+    /// then the values at 25 °C. `None`: they do not move.
+    pub thermal: Option<ThermalTruth>,
+    /// SPEC §3a: the unit's temperature through the run. `None`: 25 °C,
+    /// and the run states no temperature.
+    pub temperature: Option<TemperatureHistory>,
+}
+
+impl SimConfig {
+    /// Whether the run's records carry a `temp_c` column: a temperature
+    /// history other than a soak (a soak is stated once, as metadata
+    /// `temperature_c`).
+    pub fn temperature_column(&self) -> bool {
+        self.temperature
+            .as_ref()
+            .is_some_and(|h| h.soak_c().is_none())
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -89,6 +114,8 @@ pub enum SimError {
     Effects(String),
     #[error("invalid noise: values must be finite and ≥ 0")]
     Noise,
+    #[error("invalid temperature: {0}")]
+    Temperature(String),
 }
 
 /// 5-point Gauss–Legendre nodes and weights on [−1, 1].
@@ -157,6 +184,8 @@ pub struct Simulator {
     asym: Option<Vector3<f64>>,
     drift_gyro: Vector3<f64>,
     drift_accel: Vector3<f64>,
+    thermal: Option<ThermalTruth>,
+    temperature: Option<TemperatureHistory>,
     hint: usize,
 }
 
@@ -173,6 +202,10 @@ impl Simulator {
         }
         cfg.site.validate().map_err(SimError::Site)?;
         cfg.effects.validate().map_err(SimError::Effects)?;
+        if let Some(h) = &cfg.temperature {
+            h.validate()
+                .map_err(|e| SimError::Temperature(e.to_string()))?;
+        }
         let (arw, vrw) = (cfg.noise.gyro_arw_deg_rt_h, cfg.noise.accel_vrw_ug_rt_hz);
         if !(arw.is_finite() && arw >= 0.0 && vrw.is_finite() && vrw >= 0.0) {
             return Err(SimError::Noise);
@@ -201,6 +234,8 @@ impl Simulator {
             asym: cfg.effects.gyro_scale_asymmetry_si(),
             drift_gyro: drift.map_or_else(Vector3::zeros, |d| d.gyro_si()),
             drift_accel: drift.map_or_else(Vector3::zeros, |d| d.accel_si()),
+            thermal: cfg.thermal.filter(|m| !m.is_zero()),
+            temperature: cfg.temperature.clone(),
             traj,
             hint: 0,
         })
@@ -221,6 +256,37 @@ impl Simulator {
 
     pub fn effects(&self) -> &Effects {
         &self.effects
+    }
+
+    /// The unit's temperature at `t`, °C, when the run has a temperature
+    /// (history or soak).
+    pub fn temperature_c(&self, t: f64) -> Option<f64> {
+        self.temperature.as_ref().map(|h| h.temperature_c(t))
+    }
+
+    /// T(t), 25 °C when the run has no temperature.
+    fn temperature_or_reference(&self, t: f64) -> f64 {
+        self.temperature_c(t).unwrap_or(REFERENCE_C)
+    }
+
+    /// The parameters in force over an interval: at its midpoint's
+    /// temperature. Midpoint rather than per quadrature node, because
+    /// temperature moves slowly: the neglected term is
+    ///
+    /// ```text
+    /// ∫ (p(t) − p(t_m)) x(t) dt ≈ ṗ ∫ (t − t_m) x(t) dt  ≤ ṗ · |ẋ| Δt³ / 12
+    /// ```
+    ///
+    /// which with ṗ = 1 ppm/°C at 1 °C/min and a turn's 0.35 rad/s² is
+    /// 5e-16 rad at 100 Hz. A bias linear in T is linear in t over an
+    /// interval where T ramps, and the midpoint integrates it exactly; a
+    /// quadratic one leaves p2 Ṫ² Δt³ / 12, 1e-19 rad for p2 = 0.001
+    /// deg/h/°C² at 1 °C/min. The rate term k Ṫ is integrated exactly.
+    fn params_over(&self, ta: f64, tb: f64) -> ErrorParameters {
+        match &self.thermal {
+            Some(m) => m.params_at(&self.params, self.temperature_or_reference(0.5 * (ta + tb))),
+            None => self.params,
+        }
     }
 
     /// Calls `f(kinematics, weight)` at quadrature nodes covering
@@ -356,26 +422,46 @@ impl Simulator {
     fn record(&mut self, k: u64) -> Record {
         let (t_prev, t) = ((k - 1) as f64 / self.rate, k as f64 / self.rate);
         let dt = self.dt;
-        let p = self.params;
 
-        let gi = self.gyro_integrals(t_prev, t);
-        let mut dtheta = p.apply_gyro(&gi.dtheta, dt);
+        let mut dtheta = Vector3::zeros();
+        let mut int_f = Vector3::zeros();
+        let mut int_abs_omega = Vector3::zeros();
+        let edges = self.thermal_pieces(t_prev, t);
+        for w in edges.windows(2) {
+            // One piece is the whole record, whose Δt is the nominal one.
+            let len = if edges.len() == 2 { dt } else { w[1] - w[0] };
+            let gi = self.gyro_integrals(w[0], w[1]);
+            dtheta += self.params_over(w[0], w[1]).apply_gyro(&gi.dtheta, len);
+            int_f += gi.f;
+            int_abs_omega += gi.abs_omega;
+        }
+        if let (Some(m), Some(h)) = (&self.thermal, &self.temperature) {
+            // k Ṫ integrated exactly: k times the change of T.
+            dtheta += m.gyro_angle_from_change(h.temperature_c(t) - h.temperature_c(t_prev));
+        }
         // ∫ ḃ t dt over the interval.
         dtheta += self.drift_gyro * (0.5 * (t * t - t_prev * t_prev));
         if let Some(g) = self.g_sens {
-            dtheta += g * gi.f;
+            dtheta += g * int_f;
         }
         if let Some(asym) = self.asym {
-            dtheta += asym.component_mul(&gi.abs_omega);
+            dtheta += asym.component_mul(&int_abs_omega);
         }
 
+        // A lagging accelerometer channel lags in temperature too: its
+        // parameters are those of the interval it integrates.
         let (ta, tb) = (t_prev - self.delay, t - self.delay);
-        let ai = self.accel_integrals(ta, tb);
-        let i_ka = Matrix3::identity() + p.k_a();
-        let (b_a, d_a) = (p.b_a(), p.d_a());
         let mut dv = Vector3::zeros();
-        for i in 0..3 {
-            dv[i] = i_ka.row(i).dot(&ai.a[i].transpose()) + b_a[i] * dt + d_a[i] * ai.a_sq[i];
+        let edges = self.thermal_pieces(ta, tb);
+        for w in edges.windows(2) {
+            let len = if edges.len() == 2 { dt } else { w[1] - w[0] };
+            let ai = self.accel_integrals(w[0], w[1]);
+            let p = self.params_over(w[0], w[1]);
+            let i_ka = Matrix3::identity() + p.k_a();
+            let (b_a, d_a) = (p.b_a(), p.d_a());
+            for i in 0..3 {
+                dv[i] += i_ka.row(i).dot(&ai.a[i].transpose()) + b_a[i] * len + d_a[i] * ai.a_sq[i];
+            }
         }
         dv += self.drift_accel * (0.5 * (tb * tb - ta * ta));
 
@@ -384,6 +470,23 @@ impl Simulator {
             dtheta: dtheta.into(),
             dv: dv.into(),
         }
+    }
+
+    /// Edges of the pieces of [ta, tb] on which T(t) is linear: the
+    /// interval cut where a temperature ramp starts or stops, so that the
+    /// parameters' midpoint rule (`params_over`) never straddles a kink,
+    /// where it would be off by p1 ΔṪ Δt² / 8.
+    fn thermal_pieces(&self, ta: f64, tb: f64) -> Vec<f64> {
+        let mut edges = vec![ta];
+        if let (Some(_), Some(h)) = (&self.thermal, &self.temperature) {
+            let mut u = ta;
+            while let Some(b) = h.next_break_after(u).filter(|b| *b < tb) {
+                edges.push(b);
+                u = b;
+            }
+        }
+        edges.push(tb);
+        edges
     }
 }
 

@@ -111,6 +111,8 @@ pub fn sim_config(seed: u64, params: ErrorParameters, scheme: &str, dwell_s: f64
         },
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed,
+        thermal: None,
+        temperature: None,
     }
 }
 

@@ -30,6 +30,8 @@ pub fn config(scheme: Scheme, effects: Effects, seed: u64) -> SimConfig {
         noise: Noise::default_navigation_grade(),
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed,
+        thermal: None,
+        temperature: None,
     }
 }
 

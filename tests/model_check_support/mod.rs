@@ -53,6 +53,8 @@ pub fn config(scheme: Scheme, effects: Effects, noise: Noise, rate: f64, seed: u
         noise,
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed,
+        thermal: None,
+        temperature: None,
     }
 }
 

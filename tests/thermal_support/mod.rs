@@ -77,6 +77,8 @@ pub fn soak_config(temperature_c: f64, seed: u64) -> SimConfig {
         },
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed,
+        thermal: None,
+        temperature: None,
     }
 }
 

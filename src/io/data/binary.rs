@@ -1,17 +1,22 @@
 //! The f64le record layout: seven little-endian IEEE-754 doubles in the
-//! order `t,dthx,dthy,dthz,dvx,dvy,dvz`.
+//! order `t,dthx,dthy,dthz,dvx,dvy,dvz`, and with `"temperature_column":
+//! true` in the metadata an eighth, `temp_c`.
 
 use crate::record::Record;
+
+use super::layout::MAX_COLUMNS;
 
 /// Values in a record.
 pub(crate) const VALUES: usize = 7;
 /// Bytes in a record.
 pub const RECORD_BYTES: usize = VALUES * 8;
+/// Bytes in a record that carries the temperature.
+pub const RECORD_BYTES_WITH_TEMPERATURE: usize = (VALUES + 1) * 8;
 
-/// Decodes one record's values; `bytes` holds at least [`RECORD_BYTES`].
+/// Decodes one record's values: as many as `bytes` holds whole (7 or 8).
 #[inline]
-pub(crate) fn decode(bytes: &[u8]) -> [f64; VALUES] {
-    let mut values = [0.0; VALUES];
+pub(crate) fn decode(bytes: &[u8]) -> [f64; MAX_COLUMNS] {
+    let mut values = [0.0; MAX_COLUMNS];
     for (value, raw) in values.iter_mut().zip(bytes.chunks_exact(8)) {
         let mut word = [0u8; 8];
         word.copy_from_slice(raw);
@@ -39,6 +44,18 @@ pub(crate) fn encode(record: &Record) -> [u8; RECORD_BYTES] {
     out
 }
 
+/// Encodes a record and its temperature in file order.
+#[inline]
+pub(crate) fn encode_with_temperature(
+    record: &Record,
+    temp_c: f64,
+) -> [u8; RECORD_BYTES_WITH_TEMPERATURE] {
+    let mut out = [0u8; RECORD_BYTES_WITH_TEMPERATURE];
+    out[..RECORD_BYTES].copy_from_slice(&encode(record));
+    out[RECORD_BYTES..].copy_from_slice(&temp_c.to_le_bytes());
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -55,7 +72,9 @@ mod tests {
         assert_eq!(&bytes[..8], &[0, 0, 0, 0, 0, 0, 0xf0, 0x3f]);
         assert_eq!(&bytes[48..], &[0, 0, 0, 0, 0, 0, 0, 0x80]);
         let values = decode(&bytes);
-        assert_eq!(values, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, -0.0]);
+        assert_eq!(values[..7], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, -0.0]);
         assert!(values[6].is_sign_negative());
+        let values = decode(&encode_with_temperature(&record, 31.25));
+        assert_eq!(values, [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, -0.0, 31.25]);
     }
 }

@@ -5,7 +5,10 @@
 use crate::record::{DataKind, Record};
 
 use super::error::{Column, DataError, Position};
-use super::layout::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
+use super::layout::{
+    INCREMENT_COLUMNS, MAX_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE,
+    TEMPERATURE_COLUMN,
+};
 
 /// Steps after which the mean step is checked: by then the jitter of single
 /// time stamps (within the step tolerance) averages below the mean tolerance.
@@ -18,13 +21,17 @@ pub(crate) fn column(kind: DataKind, index0: usize) -> Column {
     };
     Column {
         index: index0 + 1,
-        name: names.get(index0).copied().unwrap_or("?"),
+        name: names
+            .get(index0)
+            .copied()
+            .or((index0 == names.len()).then_some(TEMPERATURE_COLUMN))
+            .unwrap_or("?"),
     }
 }
 
 /// Index of the first value that is NaN or infinite.
 #[inline]
-pub(crate) fn first_non_finite(values: &[f64; 7]) -> Option<usize> {
+pub(crate) fn first_non_finite(values: &[f64]) -> Option<usize> {
     // One combined test keeps the common all-finite path branch-light.
     if values.iter().all(|v| v.is_finite()) {
         None
@@ -116,7 +123,7 @@ impl Timing {
 /// `dtheta = w·Δt`, `dv = f·Δt` with `Δt = 1/sample_rate_hz`, i.e. the sample
 /// at `t` is taken as the mean rate over `(t − Δt, t]`.
 #[inline]
-pub(crate) fn to_record(kind: DataKind, v: &[f64; 7], dt: f64) -> Record {
+pub(crate) fn to_record(kind: DataKind, v: &[f64; MAX_COLUMNS], dt: f64) -> Record {
     match kind {
         DataKind::Increments => Record {
             t: v[0],
@@ -196,7 +203,7 @@ mod tests {
 
     #[test]
     fn rates_scale_by_the_nominal_interval_and_increments_pass_through() {
-        let v = [2.0, 0.5, -1.0, 0.25, 0.0, 1.0, 9.8];
+        let v = [2.0, 0.5, -1.0, 0.25, 0.0, 1.0, 9.8, 25.0];
         let inc = to_record(DataKind::Increments, &v, 0.01);
         assert_eq!(inc.dtheta, [0.5, -1.0, 0.25]);
         assert_eq!(inc.dv, [0.0, 1.0, 9.8]);

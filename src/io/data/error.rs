@@ -5,6 +5,7 @@ use std::io;
 use std::path::PathBuf;
 
 use super::layout::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
+use crate::model::thermal::PLAUSIBLE_C;
 
 /// Where in a data file something went wrong.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -119,11 +120,14 @@ pub enum DataError {
         found: String,
     },
 
-    /// A CSV record line with other than 7 columns.
-    #[error("line {line}: expected 7 columns, found {found}")]
+    /// A CSV record line with other than the header's columns (7, or 8
+    /// with `temp_c`).
+    #[error("line {line}: expected {expected} columns, found {found}")]
     ColumnCount {
         /// The line.
         line: u64,
+        /// Columns the header names.
+        expected: usize,
         /// Columns found.
         found: usize,
     },
@@ -149,6 +153,22 @@ pub enum DataError {
         column: Column,
         /// The value as written in the file (CSV) or as decoded (f64le).
         text: String,
+    },
+
+    /// A temperature no unit can have (SPEC §3a): outside
+    /// [`PLAUSIBLE_C`](crate::model::thermal::PLAUSIBLE_C).
+    #[error(
+        "{at}: column {column} is {value} °C, outside the plausible {}..{} °C",
+        PLAUSIBLE_C.start(),
+        PLAUSIBLE_C.end()
+    )]
+    Temperature {
+        /// The line or record.
+        at: Position,
+        /// The column (`temp_c`).
+        column: Column,
+        /// The value read.
+        value: f64,
     },
 
     /// Time does not strictly increase.
@@ -267,13 +287,15 @@ pub enum DataError {
 
     /// An f64le file whose length is not a whole number of records.
     #[error(
-        "record {record}: the file ends with {bytes} trailing bytes, not a whole 56-byte record"
+        "record {record}: the file ends with {bytes} trailing bytes, not a whole {record_bytes}-byte record"
     )]
     TrailingBytes {
         /// The record the trailing bytes would have been.
         record: u64,
         /// How many bytes are left over.
         bytes: usize,
+        /// Bytes in a record: 56, or 64 with the temperature.
+        record_bytes: usize,
     },
 }
 
@@ -298,13 +320,18 @@ impl DataError {
             | DataError::CorruptGzip { line, .. } => Some(Position::Line(*line)),
             DataError::Io { at, .. }
             | DataError::NonFinite { at, .. }
+            | DataError::Temperature { at, .. }
             | DataError::TimeNotIncreasing { at, .. }
             | DataError::TimeStep { at, .. }
             | DataError::MeanRate { at, .. }
             | DataError::TooLarge { at, .. } => Some(*at),
-            DataError::TrailingBytes { record, .. } => Some(Position::Record {
+            DataError::TrailingBytes {
+                record,
+                record_bytes,
+                ..
+            } => Some(Position::Record {
                 number: *record,
-                byte_offset: record.saturating_sub(1) * super::binary::RECORD_BYTES as u64,
+                byte_offset: record.saturating_sub(1) * *record_bytes as u64,
             }),
         }
     }

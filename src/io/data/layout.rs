@@ -16,3 +16,9 @@ pub const MEAN_RATE_TOLERANCE: f64 = 0.001;
 pub(crate) const INCREMENT_COLUMNS: [&str; 7] = ["t", "dthx", "dthy", "dthz", "dvx", "dvy", "dvz"];
 /// Column names of the rates kind, in file order.
 pub(crate) const RATE_COLUMNS: [&str; 7] = ["t", "wx", "wy", "wz", "fx", "fy", "fz"];
+
+/// The optional last column of either header: the unit's temperature, °C
+/// (SPEC §3a, §5).
+pub(crate) const TEMPERATURE_COLUMN: &str = "temp_c";
+/// Most values a record has: seven, and the temperature.
+pub(crate) const MAX_COLUMNS: usize = 8;

@@ -35,11 +35,13 @@ mod format;
 mod layout;
 mod reader;
 mod source;
+mod temperature;
 mod writer;
 
-pub use binary::RECORD_BYTES;
+pub use binary::{RECORD_BYTES, RECORD_BYTES_WITH_TEMPERATURE};
 pub use error::{Column, DataError, Position};
 pub use format::{DataFormat, ReadLimits, UnknownFormat};
 pub use layout::STEP_TOLERANCE;
 pub use reader::RecordReader;
+pub use temperature::{TemperaturePoint, TemperatureSummary, HISTORY_STEP_S, RATE_WINDOW_S};
 pub use writer::{CsvWriter, F64leWriter, RecordWriter, WriteOptions};

@@ -8,13 +8,15 @@ use std::path::Path;
 
 use crate::record::{DataKind, Record};
 
-use super::binary::{self, RECORD_BYTES};
+use super::binary::{self, RECORD_BYTES, RECORD_BYTES_WITH_TEMPERATURE};
 use super::buffer::{FillError, Window};
 use super::check::{column, first_non_finite, to_record, Timing};
 use super::csv::{self, FieldError, HeaderError};
 use super::error::{excerpt, DataError, Position};
 use super::format::{DataFormat, ReadLimits};
+use super::layout::MAX_COLUMNS;
 use super::source::{ExpansionExceeded, Source, TrailingGarbage};
+use super::temperature::{is_plausible, TemperaturePoint, TemperatureSummary, TemperatureTrack};
 
 /// Reads a run's records from a CSV (plain or gzip) or f64le stream,
 /// checking each one, without ever holding more than a fixed-size window of
@@ -32,6 +34,14 @@ use super::source::{ExpansionExceeded, Source, TrailingGarbage};
 /// `dv = f·Δt` with `Δt = 1/sample_rate_hz`, so every record means the same
 /// thing downstream. [`kind`](Self::kind) still tells what the file held.
 ///
+/// The unit's temperature (SPEC §3a), when the file has it (a CSV header
+/// ending in `temp_c`; an f64le file opened
+/// [`with_temperature_column`](Self::with_temperature_column)), is checked
+/// (finite, within −100..200 °C) and kept beside the records, not in them:
+/// [`temperature_c`](Self::temperature_c) of the last record,
+/// [`temperature_summary`](Self::temperature_summary) and the 1 s
+/// [`temperature_history`](Self::temperature_history) so far.
+///
 /// The iterator yields `Err` once, at the first problem, and then ends: a
 /// run with a bad record is refused, not patched. A file with a header but
 /// no records is an error too, reported by the first `next`.
@@ -39,6 +49,12 @@ pub struct RecordReader<R: Read> {
     window: Window<Source<R>>,
     format: DataFormat,
     kind: DataKind,
+    /// Whether each record carries `temp_c`.
+    temperature: bool,
+    /// f64le: bytes a record.
+    record_bytes: usize,
+    last_temperature_c: Option<f64>,
+    track: TemperatureTrack,
     max_line_bytes: usize,
     timing: Timing,
     sample_rate_hz: f64,
@@ -112,13 +128,17 @@ impl<R: Read> RecordReader<R> {
             // A line, its `\r\n`, and one byte to see that it is too long.
             limits.max_line_bytes.saturating_add(2)
         } else {
-            RECORD_BYTES
+            RECORD_BYTES_WITH_TEMPERATURE
         };
         let window = Window::new(source, limits.max_decompressed_bytes, max_pending);
         let mut reader = RecordReader {
             window,
             format,
             kind: DataKind::Increments,
+            temperature: false,
+            record_bytes: RECORD_BYTES,
+            last_temperature_c: None,
+            track: TemperatureTrack::default(),
             max_line_bytes: limits.max_line_bytes,
             timing,
             sample_rate_hz,
@@ -130,9 +150,71 @@ impl<R: Read> RecordReader<R> {
             done: false,
         };
         if csv {
-            reader.kind = reader.read_header()?;
+            (reader.kind, reader.temperature) = reader.read_header()?;
         }
         Ok(reader)
+    }
+
+    /// For f64le: whether each record has an 8th value, `temp_c` (the
+    /// metadata's `"temperature_column"`). A CSV header says for itself,
+    /// so for CSV this changes nothing. Call before reading a record.
+    pub fn with_temperature_column(mut self, present: bool) -> Self {
+        if self.format == DataFormat::F64le && self.records == 0 {
+            self.temperature = present;
+            self.record_bytes = if present {
+                RECORD_BYTES_WITH_TEMPERATURE
+            } else {
+                RECORD_BYTES
+            };
+        }
+        self
+    }
+
+    /// Whether the records carry the unit's temperature.
+    pub fn has_temperature(&self) -> bool {
+        self.temperature
+    }
+
+    /// The temperature of the last record read, °C.
+    pub fn temperature_c(&self) -> Option<f64> {
+        self.last_temperature_c
+    }
+
+    /// Mean, range and largest rate of the temperature over the records
+    /// read so far; `None` without a temperature column.
+    pub fn temperature_summary(&self) -> Option<TemperatureSummary> {
+        self.track.summary()
+    }
+
+    /// The temperature of the records read so far, one point a second
+    /// (each the mean of that second's records); empty without a column.
+    pub fn temperature_history(&self) -> Vec<TemperaturePoint> {
+        self.track.history()
+    }
+
+    /// Checks and keeps the temperature of a record whose other values
+    /// passed their checks.
+    #[inline]
+    fn accept_temperature(
+        &mut self,
+        t: f64,
+        values: &[f64; MAX_COLUMNS],
+        at: impl FnOnce() -> Position,
+    ) -> Result<(), DataError> {
+        if !self.temperature {
+            return Ok(());
+        }
+        let value = values[MAX_COLUMNS - 1];
+        if !is_plausible(value) {
+            return Err(DataError::Temperature {
+                at: at(),
+                column: column(self.kind, MAX_COLUMNS - 1),
+                value,
+            });
+        }
+        self.track.push(t, value);
+        self.last_temperature_c = Some(value);
+        Ok(())
     }
 
     /// What the file's columns hold. Always [`DataKind::Increments`] for
@@ -223,7 +305,7 @@ impl<R: Read> RecordReader<R> {
         }
     }
 
-    fn read_header(&mut self) -> Result<DataKind, DataError> {
+    fn read_header(&mut self) -> Result<(DataKind, bool), DataError> {
         loop {
             let Some((len, consume)) = self.next_line()? else {
                 return Err(DataError::NoHeader { lines: self.lines });
@@ -274,8 +356,14 @@ impl<R: Read> RecordReader<R> {
                 }
                 continue;
             }
-            let record = csv_record(line, self.lines, self.kind, &mut self.timing);
+            let columns = if self.temperature { 8 } else { 7 };
+            let line_no = self.lines;
+            let values = csv_values(line, line_no, self.kind, columns, &mut self.timing);
             self.window.consume(consume);
+            let record = values.and_then(|v| {
+                self.accept_temperature(v[0], &v, || Position::Line(line_no))?;
+                Ok(to_record(self.kind, &v, self.timing.nominal()))
+            });
             if record.is_ok() {
                 self.records += 1;
             }
@@ -284,11 +372,12 @@ impl<R: Read> RecordReader<R> {
     }
 
     fn next_binary(&mut self) -> Option<Result<Record, DataError>> {
+        let size = self.record_bytes;
         let at = Position::Record {
             number: self.records + 1,
-            byte_offset: self.records * RECORD_BYTES as u64,
+            byte_offset: self.records * size as u64,
         };
-        while self.window.pending().len() < RECORD_BYTES {
+        while self.window.pending().len() < size {
             match self.window.fill() {
                 Ok(true) => {}
                 Ok(false) => {
@@ -299,6 +388,7 @@ impl<R: Read> RecordReader<R> {
                         (bytes, _) => Some(Err(DataError::TrailingBytes {
                             record: self.records + 1,
                             bytes,
+                            record_bytes: size,
                         })),
                     };
                 }
@@ -308,9 +398,10 @@ impl<R: Read> RecordReader<R> {
                 Err(FillError::Io(source)) => return Some(Err(DataError::Io { at, source })),
             }
         }
-        let values = binary::decode(&self.window.pending()[..RECORD_BYTES]);
-        self.window.consume(RECORD_BYTES);
-        if let Some(c) = first_non_finite(&values) {
+        let values = binary::decode(&self.window.pending()[..size]);
+        self.window.consume(size);
+        let columns = size / 8;
+        if let Some(c) = first_non_finite(&values[..columns]) {
             return Some(Err(DataError::NonFinite {
                 at,
                 column: column(DataKind::Increments, c),
@@ -318,6 +409,9 @@ impl<R: Read> RecordReader<R> {
             }));
         }
         if let Err(e) = self.timing.accept(values[0], || at) {
+            return Some(Err(e));
+        }
+        if let Err(e) = self.accept_temperature(values[0], &values, || at) {
             return Some(Err(e));
         }
         self.records += 1;
@@ -329,17 +423,20 @@ impl<R: Read> RecordReader<R> {
     }
 }
 
-/// Parses and checks one CSV record line.
+/// Parses one CSV record line of `columns` values and checks its numbers
+/// and time.
 #[inline]
-fn csv_record(
+fn csv_values(
     line: &[u8],
     line_no: u64,
     kind: DataKind,
+    columns: usize,
     timing: &mut Timing,
-) -> Result<Record, DataError> {
-    let values = csv::parse_values(line).map_err(|e| match e {
+) -> Result<[f64; MAX_COLUMNS], DataError> {
+    let values = csv::parse_values(line, columns).map_err(|e| match e {
         FieldError::ColumnCount(found) => DataError::ColumnCount {
             line: line_no,
+            expected: columns,
             found,
         },
         FieldError::NotNumeric(c) => DataError::NotNumeric {
@@ -348,7 +445,7 @@ fn csv_record(
             text: excerpt(csv::field(line, c)),
         },
     })?;
-    if let Some(c) = first_non_finite(&values) {
+    if let Some(c) = first_non_finite(&values[..columns]) {
         return Err(DataError::NonFinite {
             at: Position::Line(line_no),
             column: column(kind, c),
@@ -356,7 +453,7 @@ fn csv_record(
         });
     }
     timing.accept(values[0], || Position::Line(line_no))?;
-    Ok(to_record(kind, &values, timing.nominal()))
+    Ok(values)
 }
 
 /// Names a failed refill of a CSV stream by the line it was reading.
@@ -430,6 +527,7 @@ impl<R: Read> std::fmt::Debug for RecordReader<R> {
         f.debug_struct("RecordReader")
             .field("format", &self.format)
             .field("kind", &self.kind)
+            .field("temperature", &self.temperature)
             .field("gzip", &self.is_gzip())
             .field("sample_rate_hz", &self.sample_rate_hz)
             .field("records", &self.records)

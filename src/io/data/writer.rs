@@ -13,7 +13,8 @@ use crate::record::Record;
 
 use super::binary;
 use super::format::DataFormat;
-use super::layout::INCREMENT_COLUMNS;
+use super::layout::{INCREMENT_COLUMNS, TEMPERATURE_COLUMN};
+use super::temperature::is_plausible;
 
 /// Writers hand their output on in blocks of about this size, so that a
 /// record costs no system call and gzip sees large inputs.
@@ -32,6 +33,11 @@ pub struct WriteOptions {
     /// Comment lines written before the header, without their `#` (CSV
     /// only). A comment containing newlines becomes several comment lines.
     pub comments: Vec<String>,
+    /// Each record carries the unit's temperature (SPEC §3a, §5): a last
+    /// CSV column `temp_c`, an 8th f64le value (the metadata must then say
+    /// `"temperature_column": true`). Records are then written with
+    /// `write_record_with_temperature`.
+    pub temperature_column: bool,
 }
 
 fn non_finite(record: &Record) -> io::Error {
@@ -48,6 +54,32 @@ fn is_finite(record: &Record) -> bool {
     record.t.is_finite()
         && record.dtheta.iter().all(|v| v.is_finite())
         && record.dv.iter().all(|v| v.is_finite())
+}
+
+fn temperature_mismatch(has: bool) -> io::Error {
+    io::Error::new(
+        io::ErrorKind::InvalidInput,
+        if has {
+            "this run has a temperature column: write records with their temperature"
+        } else {
+            "this run has no temperature column"
+        },
+    )
+}
+
+/// No reader would accept an implausible temperature either.
+fn check_temperature(record: &Record, temp_c: f64) -> io::Result<()> {
+    if is_plausible(temp_c) {
+        Ok(())
+    } else {
+        Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            format!(
+                "refusing to write temperature {temp_c} °C (t = {}): outside the plausible range",
+                record.t
+            ),
+        ))
+    }
 }
 
 fn finished() -> io::Error {
@@ -88,6 +120,7 @@ pub struct CsvWriter<W: Write> {
     sink: Option<Sink<W>>,
     block: Vec<u8>,
     number: ryu::Buffer,
+    temperature: bool,
 }
 
 impl<W: Write> CsvWriter<W> {
@@ -112,16 +145,42 @@ impl<W: Write> CsvWriter<W> {
             }
         }
         block.extend_from_slice(INCREMENT_COLUMNS.join(",").as_bytes());
+        if options.temperature_column {
+            block.push(b',');
+            block.extend_from_slice(TEMPERATURE_COLUMN.as_bytes());
+        }
         block.push(b'\n');
         CsvWriter {
             sink: Some(sink),
             block,
             number: ryu::Buffer::new(),
+            temperature: options.temperature_column,
         }
     }
 
-    /// Appends one record.
+    /// Appends one record (a run without a temperature column).
     pub fn write_record(&mut self, record: &Record) -> io::Result<()> {
+        if self.temperature {
+            return Err(temperature_mismatch(true));
+        }
+        self.write_values(record, None)
+    }
+
+    /// Appends one record and the unit's temperature then, °C (a run with
+    /// a temperature column).
+    pub fn write_record_with_temperature(
+        &mut self,
+        record: &Record,
+        temp_c: f64,
+    ) -> io::Result<()> {
+        if !self.temperature {
+            return Err(temperature_mismatch(false));
+        }
+        check_temperature(record, temp_c)?;
+        self.write_values(record, Some(temp_c))
+    }
+
+    fn write_values(&mut self, record: &Record, temp_c: Option<f64>) -> io::Result<()> {
         if !is_finite(record) {
             return Err(non_finite(record));
         }
@@ -140,6 +199,11 @@ impl<W: Write> CsvWriter<W> {
             }
             self.block
                 .extend_from_slice(self.number.format_finite(value).as_bytes());
+        }
+        if let Some(temp_c) = temp_c {
+            self.block.push(b',');
+            self.block
+                .extend_from_slice(self.number.format_finite(temp_c).as_bytes());
         }
         self.block.push(b'\n');
         if self.block.len() >= BLOCK_BYTES {
@@ -176,11 +240,13 @@ impl<W: Write> Drop for CsvWriter<W> {
     }
 }
 
-/// Writes increments as raw little-endian f64, 7 values a record.
-/// Call [`finish`](Self::finish); dropping flushes on a best-effort basis.
+/// Writes increments as raw little-endian f64, 7 values a record (8 with
+/// the temperature). Call [`finish`](Self::finish); dropping flushes on a
+/// best-effort basis.
 pub struct F64leWriter<W: Write> {
     out: Option<W>,
     block: Vec<u8>,
+    temperature: bool,
 }
 
 impl<W: Write> F64leWriter<W> {
@@ -188,16 +254,50 @@ impl<W: Write> F64leWriter<W> {
     pub fn new(out: W) -> Self {
         F64leWriter {
             out: Some(out),
-            block: Vec::with_capacity(BLOCK_BYTES + binary::RECORD_BYTES),
+            block: Vec::with_capacity(BLOCK_BYTES + binary::RECORD_BYTES_WITH_TEMPERATURE),
+            temperature: false,
         }
     }
 
-    /// Appends one record.
+    /// Starts an f64le stream whose records carry the temperature as an
+    /// 8th value.
+    pub fn with_temperature(out: W) -> Self {
+        let mut writer = Self::new(out);
+        writer.temperature = true;
+        writer
+    }
+
+    /// Appends one record (a run without a temperature column).
     pub fn write_record(&mut self, record: &Record) -> io::Result<()> {
+        if self.temperature {
+            return Err(temperature_mismatch(true));
+        }
         if !is_finite(record) {
             return Err(non_finite(record));
         }
         self.block.extend_from_slice(&binary::encode(record));
+        self.after_record()
+    }
+
+    /// Appends one record and the unit's temperature then, °C.
+    pub fn write_record_with_temperature(
+        &mut self,
+        record: &Record,
+        temp_c: f64,
+    ) -> io::Result<()> {
+        if !self.temperature {
+            return Err(temperature_mismatch(false));
+        }
+        if !is_finite(record) {
+            return Err(non_finite(record));
+        }
+        check_temperature(record, temp_c)?;
+        self.block
+            .extend_from_slice(&binary::encode_with_temperature(record, temp_c));
+        self.after_record()
+    }
+
+    fn after_record(&mut self) -> io::Result<()> {
         if self.block.len() >= BLOCK_BYTES {
             self.flush_block()?;
         }
@@ -247,15 +347,31 @@ impl<W: Write> RecordWriter<W> {
         check_options(format, options)?;
         Ok(match format {
             DataFormat::Csv => RecordWriter::Csv(CsvWriter::new(out, options)),
+            DataFormat::F64le if options.temperature_column => {
+                RecordWriter::F64le(F64leWriter::with_temperature(out))
+            }
             DataFormat::F64le => RecordWriter::F64le(F64leWriter::new(out)),
         })
     }
 
-    /// Appends one record.
+    /// Appends one record (a run without a temperature column).
     pub fn write_record(&mut self, record: &Record) -> io::Result<()> {
         match self {
             RecordWriter::Csv(w) => w.write_record(record),
             RecordWriter::F64le(w) => w.write_record(record),
+        }
+    }
+
+    /// Appends one record and the unit's temperature then, °C (a run with
+    /// a temperature column).
+    pub fn write_record_with_temperature(
+        &mut self,
+        record: &Record,
+        temp_c: f64,
+    ) -> io::Result<()> {
+        match self {
+            RecordWriter::Csv(w) => w.write_record_with_temperature(record, temp_c),
+            RecordWriter::F64le(w) => w.write_record_with_temperature(record, temp_c),
         }
     }
 
@@ -308,6 +424,7 @@ mod tests {
         let options = WriteOptions {
             gzip: false,
             comments: vec!["unit RLG-0042".into(), "two\nlines".into(), String::new()],
+            temperature_column: false,
         };
         let mut w = CsvWriter::new(Vec::new(), &options);
         w.write_record(&record(0.01)).expect("write");
@@ -317,6 +434,38 @@ mod tests {
             "# unit RLG-0042\n# two\n# lines\n#\nt,dthx,dthy,dthz,dvx,dvy,dvz\n\
              0.01,1e-6,-2.5e-7,0.0,0.1,-0.0,0.0980665\n"
         );
+    }
+
+    #[test]
+    fn a_temperature_column_is_written_last_and_only_when_declared() {
+        let options = WriteOptions {
+            temperature_column: true,
+            ..WriteOptions::default()
+        };
+        let mut w = CsvWriter::new(Vec::new(), &options);
+        assert!(w.write_record(&record(0.01)).is_err());
+        w.write_record_with_temperature(&record(0.01), 23.5)
+            .expect("write");
+        assert!(w
+            .write_record_with_temperature(&record(0.02), 250.0)
+            .is_err());
+        let text = String::from_utf8(w.finish().expect("finish")).expect("utf-8");
+        assert_eq!(
+            text,
+            "t,dthx,dthy,dthz,dvx,dvy,dvz,temp_c\n\
+             0.01,1e-6,-2.5e-7,0.0,0.1,-0.0,0.0980665,23.5\n"
+        );
+        let mut plain = CsvWriter::new(Vec::new(), &WriteOptions::default());
+        assert!(plain
+            .write_record_with_temperature(&record(0.01), 20.0)
+            .is_err());
+        let mut raw = RecordWriter::new(Vec::new(), DataFormat::F64le, &options).expect("f64le");
+        raw.write_record_with_temperature(&record(1.0), -40.0)
+            .expect("write");
+        assert!(raw.write_record(&record(1.01)).is_err());
+        let bytes = raw.finish().expect("finish");
+        assert_eq!(bytes.len(), binary::RECORD_BYTES_WITH_TEMPERATURE);
+        assert_eq!(bytes[56..], (-40.0f64).to_le_bytes());
     }
 
     #[test]
