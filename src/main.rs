@@ -62,9 +62,7 @@ enum Command {
     Compensate(cli_compensate::CompensateArgs),
     /// Write a result's compensation file (JSON, or CSV by the name).
     Export(cli_compensate::ExportArgs),
-    /// A unit's thermal model from results of runs soaked at several
-    /// temperatures: per parameter the value at 25 °C, linear and (where
-    /// significant) quadratic coefficients, and whether the runs fit.
+    /// A unit's thermal model (SPEC §3a) from results of soaked runs.
     Thermal(cli_thermal::ThermalArgs),
     /// Run the calibration server (HTTP API under /api/v1).
     Serve(sinscal::config::ServeArgs),

@@ -1,9 +1,10 @@
 //! The workbench in a real headless Chromium, from sign-in to a rejected
 //! unit: a run uploaded through the form and followed live to its result,
 //! the run page's 24 rows and convergence plots, a unit's trends and
-//! repeatability after three runs, the diagnosis, noise, certificate and
-//! admin pages, and a station kept out of admin. No page logs a console
-//! error. Screenshots of every page go to `target/screenshots/`.
+//! repeatability after three runs, a soaked unit's thermal model, the
+//! diagnosis, noise, certificate and admin pages, and a station kept out
+//! of admin. No page logs a console error. Screenshots of every page go to
+//! `target/screenshots/`.
 
 use std::time::Duration;
 
@@ -263,6 +264,36 @@ async fn the_workbench_in_chromium() {
     );
     assert!(!b.find_all("table#parameters tr.fail").await.is_empty());
     shoot(&b, "run-rejected").await;
+
+    // A unit soaked at three temperatures shows its thermal model.
+    for (k, t) in [-20.0, 25.0, 65.0].into_iter().enumerate() {
+        let d = dir.path().join(format!("t{k}"));
+        std::fs::create_dir_all(&d).unwrap();
+        let mut cfg = crate::common::sim_config(
+            31 + k as u64,
+            crate::thermal_support::parameters_at(t),
+            "ten-position",
+            30.0,
+        );
+        cfg.sample_rate_hz = 50.0;
+        let run = crate::common::simulate_run(&d, &cfg, DataFormat::F64le, false, "RLG-T", None);
+        let mut meta: serde_json::Value = serde_json::from_slice(&run.metadata).unwrap();
+        meta["temperature_c"] = json!(t);
+        let r = app
+            .upload_multipart(
+                &app.admin,
+                "RLG-T",
+                &serde_json::to_vec(&meta).unwrap(),
+                std::fs::read(&run.data).unwrap(),
+            )
+            .await;
+        assert_eq!(r.status(), StatusCode::ACCEPTED);
+    }
+    run_queued_jobs(&app).await;
+    visit(&b, &origin, "/units/RLG-T", "unit-thermal").await;
+    assert_eq!(b.find_all("table#thermal tbody tr").await.len(), 24);
+    assert_eq!(b.find_all("#thermal-charts svg").await.len(), 24);
+    assert!(b.find("#thermal-check").await.text().await.contains("adequate"));
 
     // Admin: issue a station token through the form.
     visit(&b, &origin, "/admin", "admin").await;

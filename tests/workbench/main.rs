@@ -6,6 +6,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+#[path = "../thermal_support/mod.rs"]
+mod thermal_support;
 
 mod browser_client;
 mod in_chromium;
