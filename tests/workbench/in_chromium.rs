@@ -293,7 +293,12 @@ async fn the_workbench_in_chromium() {
     visit(&b, &origin, "/units/RLG-T", "unit-thermal").await;
     assert_eq!(b.find_all("table#thermal tbody tr").await.len(), 24);
     assert_eq!(b.find_all("#thermal-charts svg").await.len(), 24);
-    assert!(b.find("#thermal-check").await.text().await.contains("adequate"));
+    assert!(b
+        .find("#thermal-check")
+        .await
+        .text()
+        .await
+        .contains("adequate"));
 
     // Admin: issue a station token through the form.
     visit(&b, &origin, "/admin", "admin").await;
