@@ -182,6 +182,17 @@ async fn bound_request_head(req: axum::extract::Request, next: axum::middleware:
     next.run(req).await
 }
 
+/// Refuses new work (an upload, a queued job) once shutdown has begun.
+pub(crate) fn refuse_while_stopping(st: &AppState) -> Result<(), ApiError> {
+    if st.stopping.load(Ordering::Relaxed) {
+        return Err(ApiError::Unavailable {
+            detail: "the server is shutting down".into(),
+            retry_after_s: 10,
+        });
+    }
+    Ok(())
+}
+
 /// Ids are UUIDs made by the server; anything else names nothing.
 pub(crate) fn parse_id(raw: String, what: &str) -> Result<String, ApiError> {
     uuid::Uuid::parse_str(&raw)

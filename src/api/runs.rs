@@ -4,7 +4,6 @@
 
 use axum::extract::rejection::PathRejection;
 use axum::extract::{Path, State};
-use std::sync::atomic::Ordering;
 
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -16,7 +15,7 @@ use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::jobs::JobView;
 use super::upload::queue_full;
-use super::{parse_id, rfc3339, AppState};
+use super::{parse_id, refuse_while_stopping, rfc3339, AppState};
 
 use crate::accept::Verdict;
 use crate::diagnose::DiagnoseReport;
@@ -144,13 +143,19 @@ async fn get_run(
 ) -> Result<Json<RunView>, ApiError> {
     auth.require(roles::FOLLOW)?;
     let id = parse_id(path?.0, "run")?;
-    let run = st
-        .store
-        .get_run(&id)
+    let run = readable_run(&st, &auth, &id).await?;
+    Ok(Json(RunView::from_row(run)?))
+}
+
+/// The run `id` if `auth` may read it (the API's run view and every page
+/// of a run): a station reads only its own uploads, and any other run is
+/// 404 to it, as an unknown one is.
+pub(crate) async fn readable_run(st: &AppState, auth: &Auth, id: &str) -> Result<RunRow, ApiError> {
+    st.store
+        .get_run(id)
         .await?
         .filter(|r| auth.may_read_run(r.uploaded_by.as_deref()))
-        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))?;
-    Ok(Json(RunView::from_row(run)?))
+        .ok_or_else(|| ApiError::NotFound(format!("no run {id}")))
 }
 
 async fn get_result(
@@ -281,16 +286,6 @@ async fn recalibrate_run(
 pub(crate) struct QueuedJob {
     pub job: JobRow,
     pub created: bool,
-}
-
-fn refuse_while_stopping(st: &AppState) -> Result<(), ApiError> {
-    if st.stopping.load(Ordering::Relaxed) {
-        return Err(ApiError::Unavailable {
-            detail: "the server is shutting down".into(),
-            retry_after_s: 10,
-        });
-    }
-    Ok(())
 }
 
 /// Queues a diagnosis of a run unless one is queued or running already.

@@ -9,7 +9,6 @@
 //! rows are written in one transaction, then 202.
 
 use std::io::{self, BufWriter, Read, Write};
-use std::sync::atomic::Ordering;
 
 use axum::body::Bytes;
 use axum::extract::rejection::{PathRejection, QueryRejection};
@@ -26,7 +25,7 @@ use super::error::ApiError;
 use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
 pub use super::upload_store::{queue_full, UploadAnswer};
 use super::upload_store::{store_run, Ingested, StoredRun};
-use super::AppState;
+use super::{refuse_while_stopping, AppState};
 use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
 use crate::metrics::UploadOutcome;
@@ -363,12 +362,7 @@ pub async fn upload(
 /// is not stopping, the queue and the disk have room, and an upload slot
 /// is free (held by the returned permit).
 async fn admit(st: &AppState) -> Result<tokio::sync::OwnedSemaphorePermit, ApiError> {
-    if st.stopping.load(Ordering::Relaxed) {
-        return Err(ApiError::Unavailable {
-            detail: "the server is shutting down".into(),
-            retry_after_s: 10,
-        });
-    }
+    refuse_while_stopping(st)?;
     // Checked before reading the body so a full queue or disk costs the
     // station nothing; checked again in the insert transaction.
     if st.store.queue_depth().await? >= st.config.max_queue {

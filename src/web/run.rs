@@ -18,12 +18,12 @@ use super::run_plots::{convergence_charts, residual_chart};
 use super::session::{see_other, CsrfForm, Session};
 use crate::accept::{LimitKind, ProductLimits, Verdict};
 use crate::api::auth::roles;
-use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run, stored_run};
+use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run};
 use crate::api::{parse_id, AppState};
 use crate::calib::CalibrationResult;
 use crate::io::meta::RunMetadata;
 use crate::model::PARAMETERS;
-use crate::store::{JobRow, RunRow, StoredVerdict};
+use crate::store::{JobRow, Role, RunRow, StoredVerdict};
 
 /// The run `id` if the session may read it (a station: its own uploads
 /// only, as in the API; others read as 404).
@@ -34,11 +34,7 @@ pub(super) async fn readable_run(
 ) -> Result<RunRow, PageError> {
     session.require(roles::FOLLOW)?;
     let id = parse_id(id, "run")?;
-    let run = stored_run(st, &id).await?;
-    if !session.auth.may_read_run(run.uploaded_by.as_deref()) {
-        return Err(PageError::not_found(format!("no run {id}")));
-    }
-    Ok(run)
+    Ok(crate::api::runs::readable_run(st, &session.auth, &id).await?)
 }
 
 /// The run's result, parsed (a few hundred kB of JSON, mostly the
@@ -344,47 +340,59 @@ fn checks(r: &CalibrationResult) -> Markup {
     }
 }
 
-fn run_action_target(run: &RunRow) -> String {
-    format!("/runs/{}", run.id)
+/// What the run page's buttons do, and who may.
+#[derive(Clone, Copy, Debug)]
+enum RunAction {
+    Diagnose,
+    Calibrate,
+    Delete,
 }
 
-pub async fn diagnose(
-    State(st): State<AppState>,
-    session: Session,
-    Path(id): Path<String>,
-    Form(form): Form<CsrfForm>,
-) -> Result<Response, PageError> {
-    session.check_csrf(&form.csrf)?;
-    session.require(roles::ENGINEER)?;
-    let run = readable_run(&st, &session, id).await?;
-    queue_diagnosis(&st, &run.id).await?;
-    Ok(see_other(&run_action_target(&run)))
+impl RunAction {
+    fn named(name: &str) -> Option<RunAction> {
+        match name {
+            "diagnose" => Some(RunAction::Diagnose),
+            "calibrate" => Some(RunAction::Calibrate),
+            "delete" => Some(RunAction::Delete),
+            _ => None,
+        }
+    }
+
+    fn roles(self) -> &'static [Role] {
+        match self {
+            RunAction::Diagnose | RunAction::Calibrate => roles::ENGINEER,
+            RunAction::Delete => roles::ADMIN,
+        }
+    }
 }
 
-pub async fn recalibrate(
+/// `POST /runs/{id}/{diagnose|calibrate|delete}`: the button's action,
+/// through the API's own function, then back to the run (or, once
+/// deleted, to its unit).
+pub async fn action(
     State(st): State<AppState>,
     session: Session,
-    Path(id): Path<String>,
+    Path((id, name)): Path<(String, String)>,
     Form(form): Form<CsrfForm>,
 ) -> Result<Response, PageError> {
+    let action = RunAction::named(&name)
+        .ok_or_else(|| PageError::not_found(format!("no run action {name:?}")))?;
     session.check_csrf(&form.csrf)?;
-    session.require(roles::ENGINEER)?;
+    session.require(action.roles())?;
     let run = readable_run(&st, &session, id).await?;
-    queue_recalibration(&st, &run.id).await?;
-    Ok(see_other(&run_action_target(&run)))
-}
-
-pub async fn delete(
-    State(st): State<AppState>,
-    session: Session,
-    Path(id): Path<String>,
-    Form(form): Form<CsrfForm>,
-) -> Result<Response, PageError> {
-    session.check_csrf(&form.csrf)?;
-    session.require(roles::ADMIN)?;
-    let run = readable_run(&st, &session, id).await?;
-    remove_run(&st, &run.id).await?;
-    Ok(see_other(&format!("/units/{}", run.unit_serial)))
+    match action {
+        RunAction::Diagnose => {
+            queue_diagnosis(&st, &run.id).await?;
+        }
+        RunAction::Calibrate => {
+            queue_recalibration(&st, &run.id).await?;
+        }
+        RunAction::Delete => {
+            remove_run(&st, &run.id).await?;
+            return Ok(see_other(&format!("/units/{}", run.unit_serial)));
+        }
+    }
+    Ok(see_other(&format!("/runs/{}", run.id)))
 }
 
 /// The run's files the page offers for download.
