@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use crate::calib::{ErrorModel, EstimateOptions};
+use crate::calib::{Effect, ErrorModel, EstimateOptions};
 use crate::model::{Group, PARAMETERS};
 
 /// The embedded defaults: what `serve` uses with neither a flag nor its
@@ -31,6 +31,7 @@ pub mod defaults {
     pub const MAX_ATTEMPTS: i64 = 3;
     pub const SHUTDOWN_GRACE_SECS: f64 = 20.0;
     pub const DIAGNOSE_INADEQUATE: bool = true;
+    pub const THERMAL_AUTO: bool = true;
     pub const UPLOAD_IDLE_SECS: f64 = 30.0;
     /// A station on a slow line still sends 100 kB/s; 10 kB/s is a stall.
     pub const UPLOAD_MIN_RATE: u64 = 10_000;
@@ -102,6 +103,12 @@ pub struct ServeArgs {
     /// estimated as filter states beside the 24 parameters.
     #[arg(long, env = "SINSCAL_MODEL", default_value = "base")]
     pub model: ErrorModel,
+    /// Calibrate a run whose temperature column spans 3 °C or more with
+    /// the in-run thermal states (SPEC §3a) as well (`true` or `false`);
+    /// with `false` its result only proposes them.
+    #[arg(long, env = "SINSCAL_THERMAL_AUTO",
+          default_value_t = defaults::THERMAL_AUTO, action = clap::ArgAction::Set)]
+    pub thermal_auto: bool,
     /// Queue a diagnose job for every run whose calibration fails its
     /// model check (`true` or `false`).
     #[arg(long, env = "SINSCAL_DIAGNOSE_INADEQUATE",
@@ -256,7 +263,10 @@ impl Config {
             max_expansion_ratio: defaults::MAX_EXPANSION_RATIO,
             min_free_bytes: defaults::MIN_FREE_BYTES,
             tolerances: default_tolerances(),
-            estimate: EstimateOptions::default(),
+            estimate: EstimateOptions {
+                thermal_auto: defaults::THERMAL_AUTO,
+                ..EstimateOptions::default()
+            },
             diagnose_inadequate: defaults::DIAGNOSE_INADEQUATE,
             design_time_limit: Duration::from_secs_f64(defaults::DESIGN_TIME_LIMIT_SECS),
         }
@@ -279,7 +289,15 @@ impl Config {
         }
         c.max_attempts = a.max_attempts;
         c.diagnose_inadequate = a.diagnose_inadequate;
+        if a.model.has(Effect::Thermal) {
+            return Err(ConfigError::Invalid(
+                "--model: thermal states need a run's temperature column, which not every run \
+                 has; --thermal-auto adds them to the runs whose temperature moves"
+                    .into(),
+            ));
+        }
         c.estimate.model = a.model.clone();
+        c.estimate.thermal_auto = a.thermal_auto;
         c.shutdown_grace = seconds_flag("shutdown-grace-secs", a.shutdown_grace_secs, 0.0)?;
         c.upload_pace = BodyPace {
             idle: seconds_flag("upload-idle-secs", a.upload_idle_secs, 0.1)?,

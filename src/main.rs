@@ -1,5 +1,6 @@
 //! The `sinscal` command line.
 
+mod cli_calibrate;
 mod cli_compensate;
 mod cli_noise;
 mod cli_simulate_thermal;
@@ -15,7 +16,7 @@ use sinscal::io::data::DataFormat;
 use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::{ErrorModel, EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal::calib::{EstimateOptions, NoiseDensity};
 use sinscal::design::{design, Axes, DesignRequest, Target};
 use sinscal::diagnose::plot::gap_svg;
 use sinscal::diagnose::DiagnoseOptions;
@@ -23,7 +24,7 @@ use sinscal::io::meta::{read_json, write_json, RunMetadata, Truth};
 use sinscal::io::run::{metadata_sidecar, write_simulated_run};
 use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::Site;
-use sinscal::pipeline::{calibrate_file, diagnose_file};
+use sinscal::pipeline::diagnose_file;
 use sinscal::sim::{HandTurns, Noise, Scheme, SchemeRef, SimConfig};
 
 #[derive(Parser)]
@@ -43,7 +44,7 @@ enum Command {
     /// a scheme and a parameter set.
     Simulate(SimulateArgs),
     /// Calibrate a run: the 24 parameters with their 1-σ.
-    Calibrate(CalibrateArgs),
+    Calibrate(cli_calibrate::CalibrateArgs),
     /// Predict the 1-σ a scheme reaches at a given noise, before any data.
     Plan(PlanArgs),
     /// Design the shortest scheme whose predicted 1-σ meets an accuracy
@@ -100,28 +101,6 @@ struct DiagnoseArgs {
     /// Also write the gap plot (SVG) here.
     #[arg(long)]
     svg: Option<PathBuf>,
-}
-
-#[derive(clap::Args)]
-struct CalibrateArgs {
-    /// The run's data file (CSV, gzip CSV or f64le).
-    run: PathBuf,
-    /// Its metadata; default: the sidecar beside it (run.csv → run.json).
-    #[arg(long)]
-    meta: Option<PathBuf>,
-    /// Write the full result (SPEC §5 and more) as JSON here.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    #[arg(long, value_enum, default_value_t = EstimatorKind::default())]
-    estimator: EstimatorKind,
-    /// Skip the cross-check with the other estimator.
-    #[arg(long)]
-    no_cross_check: bool,
-    /// The error model: `base`, or `base+` SPEC §3 effects joined by `+`
-    /// (e.g. `base+accel_lever_arm+accel_delay`), estimated as filter
-    /// states beside the 24 parameters.
-    #[arg(long, default_value = "base")]
-    model: ErrorModel,
 }
 
 #[derive(clap::Args)]
@@ -386,33 +365,8 @@ fn read_metadata(
     RunMetadata::from_json(&text).with_context(|| format!("in {}", path.display()))
 }
 
-fn run_calibrate(a: CalibrateArgs) -> anyhow::Result<()> {
-    let meta = read_metadata(&a.run, a.meta.as_deref())?;
-    let opts = EstimateOptions {
-        estimator: a.estimator,
-        cross_check: !a.no_cross_check,
-        model: a.model,
-        ..EstimateOptions::default()
-    };
-    let cancel = AtomicBool::new(false);
-    let mut last_stage = String::new();
-    let result = calibrate_file(
-        &a.run,
-        &meta,
-        &opts,
-        &mut |p| print_stage(&p, &mut last_stage),
-        &cancel,
-    )?;
-    print!("unit {}\n{}", meta.unit_serial, result.table());
-    if let Some(out) = &a.out {
-        write_json(out, &result)?;
-        eprintln!("wrote {}", out.display());
-    }
-    Ok(())
-}
-
 /// Prints a progress line on stderr whenever the stage changes.
-fn print_stage(p: &sinscal::calib::Progress, last_stage: &mut String) {
+pub(crate) fn print_stage(p: &sinscal::calib::Progress, last_stage: &mut String) {
     if p.stage != *last_stage {
         eprintln!("{:>3.0}% {}", 100.0 * p.fraction, p.stage);
         *last_stage = p.stage.clone();
@@ -575,7 +529,10 @@ fn main() -> std::process::ExitCode {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Simulate(a) => run_simulate(a),
-        Command::Calibrate(a) => run_calibrate(a),
+        Command::Calibrate(a) => {
+            let meta = read_metadata(&a.run, a.meta.as_deref())?;
+            cli_calibrate::run_calibrate(a, meta)
+        }
         Command::Plan(a) => run_plan(a),
         Command::Diagnose(a) => run_diagnose(a),
         Command::Design(a) => run_design(a),

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use crate::calib::result::RunTemperature;
+use crate::calib::temperature::TemperatureCurve;
 use crate::calib::{
     self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo,
 };
@@ -64,6 +65,41 @@ impl RecordSource for FileSource {
             reader.map(|r| r.map_err(|e| CalibError::Source(e.to_string()))),
         ))
     }
+
+    /// The `temp_c` column: one more streaming pass, made only when the
+    /// header (CSV) or the metadata (f64le) says there is a column.
+    fn temperature(&self) -> Result<Option<TemperatureCurve>, CalibError> {
+        let source_error = |e: DataError| CalibError::Source(e.to_string());
+        let mut reader = RecordReader::open_with_limits(
+            &self.path,
+            self.format,
+            self.sample_rate_hz,
+            self.limits,
+        )
+        .map_err(source_error)?
+        .with_temperature_column(self.temperature_column);
+        if !reader.has_temperature() {
+            return Ok(None);
+        }
+        for record in reader.by_ref() {
+            record.map_err(source_error)?;
+        }
+        let Some(t) = reader.temperature_summary() else {
+            return Ok(None);
+        };
+        let summary = RunTemperature {
+            mean_c: t.mean_c,
+            min_c: t.min_c,
+            max_c: t.max_c,
+            max_rate_c_per_min: t.max_rate_c_per_min.unwrap_or(0.0),
+        };
+        let points = reader
+            .temperature_history()
+            .into_iter()
+            .map(|p| (p.t_s, p.temp_c))
+            .collect();
+        Ok(TemperatureCurve::new(points, summary))
+    }
 }
 
 /// Calibrates the run in `data` described by `meta`.
@@ -77,38 +113,11 @@ pub fn calibrate_file(
     let (source, run) = FileSource::of_run(data, meta);
     let mut result = calib::estimate(&source, &run, opts, progress, cancel)?;
     // A soaked run states its temperature once, in its metadata; a run
-    // with a temp_c column, record by record.
-    result.temperature = match meta.temperature_c {
-        Some(t) => Some(RunTemperature::soaked(t)),
-        None => column_temperature(&source)?,
-    };
+    // with a temp_c column has it from the column (the estimator's).
+    if let Some(t) = meta.temperature_c {
+        result.temperature = Some(RunTemperature::soaked(t));
+    }
     Ok(result)
-}
-
-/// The run's temperature from its `temp_c` column: one more streaming pass,
-/// made only when the header (CSV) or the metadata (f64le) says there is a
-/// column.
-fn column_temperature(source: &FileSource) -> Result<Option<RunTemperature>, CalibError> {
-    let mut reader = RecordReader::open_with_limits(
-        &source.path,
-        source.format,
-        source.sample_rate_hz,
-        source.limits,
-    )
-    .map_err(|e| CalibError::Source(e.to_string()))?
-    .with_temperature_column(source.temperature_column);
-    if !reader.has_temperature() {
-        return Ok(None);
-    }
-    for record in reader.by_ref() {
-        record.map_err(|e| CalibError::Source(e.to_string()))?;
-    }
-    Ok(reader.temperature_summary().map(|t| RunTemperature {
-        mean_c: t.mean_c,
-        min_c: t.min_c,
-        max_c: t.max_c,
-        max_rate_c_per_min: t.max_rate_c_per_min.unwrap_or(0.0),
-    }))
 }
 
 /// Diagnoses the run in `data` described by `meta`: the one

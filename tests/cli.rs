@@ -539,7 +539,10 @@ fn simulate_writes_a_ramp_as_the_temp_c_column_and_a_soak_as_metadata() {
 
 /// A run with a `temp_c` column (a chamber ramp, CSV and f64le) is
 /// calibrated with its temperature summary in the result: start, end and
-/// the ramp's rate; a soak's result carries its metadata temperature.
+/// the ramp's rate, and, as it spans 4 °C, a proposal of the thermal
+/// states, which `--thermal` then estimates into a SPEC §3a object. A
+/// soak's result carries its metadata temperature, and `--thermal` on it
+/// is refused with the reason.
 #[test]
 fn calibrate_keeps_the_run_s_temperature() {
     let dir = tempfile::tempdir().unwrap();
@@ -581,6 +584,34 @@ fn calibrate_keeps_the_run_s_temperature() {
         );
         let rate = t["max_rate_c_per_min"].as_f64().unwrap();
         assert!((rate - 1.0).abs() < 0.05, "{format}: {t}");
+        let proposed = r["warnings"].as_array().unwrap().iter().any(|w| {
+            let w = w.as_str().unwrap();
+            w.contains("spanned 4.0 °C") && w.contains("--thermal")
+        });
+        assert!(proposed, "{format}: {}", r["warnings"]);
+        assert!(r.get("thermal").is_none());
+
+        let table = stdout_of(
+            sinscal()
+                .arg("calibrate")
+                .arg(out.join(file))
+                .arg("--thermal")
+                .arg("--out")
+                .arg(&result),
+        );
+        assert!(table.contains("gyro_bias_rate_x"), "{table}");
+        let r: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
+        assert_eq!(r["model"], "base-24+thermal");
+        let th = &r["thermal"];
+        let lo = th["range_c"][0].as_f64().unwrap();
+        assert!((lo - 10.0).abs() < 0.01, "{format}: {th}");
+        assert!(th["gyro_bias_rate"]["z"]["sigma"].as_f64().unwrap() > 0.0);
+        let bias = &th["parameters"]["accel_bias_x"];
+        assert_eq!(bias["unit"], "ug");
+        assert!(bias["linear"]["sigma"].as_f64().unwrap() > 0.0);
+        assert_eq!(bias["covariance"].as_array().unwrap().len(), 4);
+        assert!(th["parameters"]["accel_quad_x"].get("linear").is_none());
     }
     let soak = dir.path().join("soak");
     stdout_of(
@@ -601,4 +632,16 @@ fn calibrate_keeps_the_run_s_temperature() {
     let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&result).unwrap()).unwrap();
     assert_eq!(r["temperature"]["mean_c"], -5.0);
     assert_eq!(r["temperature"]["max_rate_c_per_min"], 0.0);
+    let refused = sinscal()
+        .arg("calibrate")
+        .arg(soak.join("run.csv"))
+        .arg("--thermal")
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        err.contains("no temperature column") && err.contains("sinscal thermal"),
+        "{err}"
+    );
 }

@@ -10,8 +10,25 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::effect_sensitivity::EffectParameter;
 use crate::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
+use crate::model::{Group, PARAMETERS};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// The families whose linear temperature coefficients the in-run thermal
+/// states carry: the biases and scale factors, which move most with
+/// temperature, and the mountings, whose hundredths of an arcsec per °C
+/// make arcseconds over a chamber's range: left out, a run over 40 °C
+/// fails its model check. The accelerometers' quadratic terms are left
+/// out: a few tenths of a µg/g² across a range is below what a run
+/// resolves of them.
+pub const THERMAL_LINEAR: [Group; 6] = [
+    Group::GyroBias,
+    Group::GyroScale,
+    Group::GyroMisalign,
+    Group::AccelBias,
+    Group::AccelScale,
+    Group::AccelMisalign,
+];
 
 /// A SPEC §3 effect, as a family of states.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -30,10 +47,26 @@ pub enum Effect {
     BiasDrift,
     /// Gyro scale-factor asymmetry (3 states).
     GyroScaleAsymmetry,
+    /// SPEC §3a in-run: the linear temperature coefficients of the biases
+    /// and scale factors (12 states) and the gyro bias against the rate
+    /// of change of temperature (3). Needs the run's temperature column.
+    Thermal,
 }
 
 impl Effect {
-    pub const ALL: [Effect; 5] = [
+    pub const ALL: [Effect; 6] = [
+        Effect::AccelLeverArm,
+        Effect::GyroGSensitivity,
+        Effect::AccelDelay,
+        Effect::BiasDrift,
+        Effect::GyroScaleAsymmetry,
+        Effect::Thermal,
+    ];
+
+    /// The SPEC §3 effects: those a run's motion shows, which the
+    /// discrepancy workflow and scheme design reason about; `Thermal`
+    /// follows the run's temperature instead.
+    pub const MOTION: [Effect; 5] = [
         Effect::AccelLeverArm,
         Effect::GyroGSensitivity,
         Effect::AccelDelay,
@@ -49,6 +82,7 @@ impl Effect {
             Effect::AccelDelay => "accel_delay",
             Effect::BiasDrift => "bias_drift",
             Effect::GyroScaleAsymmetry => "gyro_scale_asymmetry",
+            Effect::Thermal => "thermal",
         }
     }
 
@@ -75,6 +109,12 @@ impl Effect {
                 .chain((0..3).map(S::AccelBiasDrift))
                 .collect(),
             Effect::GyroScaleAsymmetry => (0..3).map(S::GyroScaleAsymmetry).collect(),
+            Effect::Thermal => THERMAL_LINEAR
+                .iter()
+                .flat_map(|g| g.range())
+                .map(S::ThermalLinear)
+                .chain((0..3).map(S::GyroBiasRate))
+                .collect(),
         }
     }
 }
@@ -93,6 +133,8 @@ impl EffectParameter {
             S::GyroBiasDrift(i) => format!("bias_drift_gyro_{}", AXES[i]),
             S::AccelBiasDrift(i) => format!("bias_drift_accel_{}", AXES[i]),
             S::GyroScaleAsymmetry(i) => format!("gyro_scale_asymmetry_{}", AXES[i]),
+            S::ThermalLinear(i) => format!("thermal.linear.{}", PARAMETERS[i].name),
+            S::GyroBiasRate(i) => format!("thermal.gyro_bias_rate.{}", AXES[i]),
         }
     }
 
@@ -107,6 +149,14 @@ impl EffectParameter {
             S::GyroBiasDrift(_) => "deg/h/h",
             S::AccelBiasDrift(_) => "ug/h",
             S::GyroScaleAsymmetry(_) => "ppm",
+            S::ThermalLinear(i) => match PARAMETERS[i].group {
+                Group::GyroBias => "deg/h/degC",
+                Group::AccelBias => "ug/degC",
+                Group::GyroScale | Group::AccelScale => "ppm/degC",
+                Group::GyroMisalign | Group::AccelMisalign => "arcsec/degC",
+                Group::AccelQuad => "ug/g^2/degC",
+            },
+            S::GyroBiasRate(_) => "deg/h/(degC/min)",
         }
     }
 
@@ -120,6 +170,10 @@ impl EffectParameter {
             S::GyroBiasDrift(_) => DEG_PER_H / HOUR,
             S::AccelBiasDrift(_) => UG / HOUR,
             S::GyroScaleAsymmetry(_) => PPM,
+            // Per °C: the parameter's own unit.
+            S::ThermalLinear(i) => PARAMETERS[i].si_per_unit,
+            // (deg/h) per (°C/min) is DEG_PER_H rad/s per (1/60 °C/s).
+            S::GyroBiasRate(_) => DEG_PER_H * 60.0,
         }
     }
 
@@ -138,6 +192,20 @@ impl EffectParameter {
             S::GyroBiasDrift(_) => 0.1,
             S::AccelBiasDrift(_) => 100.0,
             S::GyroScaleAsymmetry(_) => 500.0,
+            // Several times a navigation-grade unit's largest coefficients
+            // (thousandths of a deg/h and tenths of a ppm per °C for the
+            // gyros, µg and ppm per °C for the accelerometers).
+            S::ThermalLinear(i) => match PARAMETERS[i].group {
+                Group::GyroBias => 0.01,
+                Group::GyroScale => 2.0,
+                Group::AccelBias => 20.0,
+                Group::AccelScale => 10.0,
+                Group::GyroMisalign | Group::AccelMisalign => 1.0,
+                Group::AccelQuad => 5.0,
+            },
+            // RLG biases move by hundredths of a deg/h at a chamber's
+            // fastest ramps (a few °C/min).
+            S::GyroBiasRate(_) => 0.1,
         }
     }
 }
@@ -169,6 +237,17 @@ impl ErrorModel {
 
     pub fn is_base(&self) -> bool {
         self.effects.is_empty()
+    }
+
+    pub fn has(&self, effect: Effect) -> bool {
+        self.effects.contains(&effect)
+    }
+
+    /// This model with `effect` added.
+    pub fn and(&self, effect: Effect) -> Self {
+        let mut effects = self.effects.clone();
+        effects.push(effect);
+        ErrorModel::with(&effects)
     }
 
     /// Every effect state, in order.
@@ -221,7 +300,7 @@ impl FromStr for ErrorModel {
             let e = Effect::ALL
                 .into_iter()
                 .find(|e| e.name() == part.trim())
-                .ok_or_else(|| refuse(format!("{part:?} is not a SPEC §3 effect")))?;
+                .ok_or_else(|| refuse(format!("{part:?} is not a SPEC §3 effect nor thermal")))?;
             effects.push(e);
         }
         Ok(ErrorModel::with(&effects))
@@ -254,7 +333,7 @@ mod tests {
         assert_eq!(ErrorModel::base().to_string(), "base-24");
         let every = Effect::ALL.map(Effect::name).join("+");
         let all: ErrorModel = format!("base+{every}").parse().unwrap();
-        assert_eq!(all.states().len(), 6 + 9 + 1 + 6 + 3);
+        assert_eq!(all.states().len(), 6 + 9 + 1 + 6 + 3 + 24);
         assert!("accel_delay".parse::<ErrorModel>().is_err());
         assert!("base+accel_dleay".parse::<ErrorModel>().is_err());
         let json = serde_json::to_string(&m).unwrap();

@@ -22,7 +22,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::sensitivity::Rows;
+use super::sensitivity::{base_columns, Rows};
 use crate::nav::attitude::skew;
 
 /// One effect parameter as an error state, in SI.
@@ -50,6 +50,12 @@ pub enum EffectParameter {
     AccelBiasDrift(usize),
     /// Gyro scale-factor asymmetry, dimensionless.
     GyroScaleAsymmetry(usize),
+    /// SPEC §3a p1 of base parameter `.0` (canonical index; a bias or a
+    /// scale factor), SI per °C: the parameter is p + p1 ΔT at every
+    /// instant.
+    ThermalLinear(usize),
+    /// SPEC §3a k of gyro `.0`: the bias k Ṫ, (rad/s) per (°C/s).
+    GyroBiasRate(usize),
 }
 
 /// What a walk carries beyond the base model: the effect states whose
@@ -88,6 +94,11 @@ pub struct RecordMotion {
     pub dt: f64,
     /// Mid-record time from the scheme's start (SPEC §3 `bias_drift`), s.
     pub t_mid: f64,
+    /// The unit's temperature at mid-record less 25 °C, and its rate of
+    /// change, °C/s (SPEC §3a; both 0 for a run without a temperature
+    /// column).
+    pub delta_c: f64,
+    pub rate_c_per_s: f64,
     /// The accelerometer triad's response to its input at this record
     /// (`Compensator::accel_jacobian`), and its inverse.
     pub accel_jacobian: Matrix3<f64>,
@@ -145,7 +156,29 @@ pub fn effect_column(p: EffectParameter, m: &RecordMotion) -> (Rows, Vector3<f64
         EffectParameter::GyroBiasDrift(i) => (Rows::Attitude, axis(i) * (m.t_mid * m.dt)),
         EffectParameter::AccelBiasDrift(i) => (Rows::Velocity, axis(i) * (m.t_mid * m.dt)),
         EffectParameter::GyroScaleAsymmetry(i) => (Rows::Attitude, axis(i) * dtheta[i].abs()),
+        EffectParameter::ThermalLinear(i) => {
+            let (rows, col) = base_column_b(i, &dtheta, &dv, m.dt);
+            (rows, col * m.delta_c)
+        }
+        EffectParameter::GyroBiasRate(i) => (Rows::Attitude, axis(i) * (m.rate_c_per_s * m.dt)),
     }
+}
+
+/// Base parameter `i`'s column over one record in body axes
+/// (`sensitivity::base_columns` with the body as the frame).
+fn base_column_b(
+    i: usize,
+    dtheta: &Vector3<f64>,
+    dv: &Vector3<f64>,
+    dt: f64,
+) -> (Rows, Vector3<f64>) {
+    let mut found = (Rows::Attitude, Vector3::zeros());
+    base_columns(&Matrix3::identity(), dtheta, dv, dt, |k, rows, col| {
+        if k == i {
+            found = (rows, col);
+        }
+    });
+    found
 }
 
 /// The change an effect parameter `p` of known size `value` (SI) makes
@@ -172,7 +205,10 @@ pub fn known_effect_change(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::run::RecordSource;
+    use crate::calib::sources::SimSource;
     use crate::model::effects::{BiasDrift, LeverArms};
+    use crate::model::thermal::{TemperatureHistory, ThermalTruth};
     use crate::model::{Effects, ErrorParameters};
     use crate::nav::Site;
     use crate::sim::trajectory::Motion;
@@ -207,9 +243,28 @@ mod tests {
     /// with a step in acceleration (SPEC §4's height profile) that a
     /// central difference spreads over the neighbouring records.
     fn check(effects: Effects, params: &[(EffectParameter, f64)], rows: Rows, tolerance: f64) {
-        let cfg = config(effects);
-        let with: Vec<_> = simulate(&cfg).unwrap().collect();
-        let without: Vec<_> = simulate(&config(Effects::none())).unwrap().collect();
+        check_against(
+            &config(effects),
+            &config(Effects::none()),
+            params,
+            rows,
+            tolerance,
+        );
+    }
+
+    /// `check` for the run `cfg` against `plain`, the same run without
+    /// what `params` model.
+    fn check_against(
+        cfg: &SimConfig,
+        plain: &SimConfig,
+        params: &[(EffectParameter, f64)],
+        rows: Rows,
+        tolerance: f64,
+    ) {
+        let effects = &cfg.effects;
+        let with: Vec<_> = simulate(cfg).unwrap().collect();
+        let without: Vec<_> = simulate(plain).unwrap().collect();
+        let curve = SimSource(cfg.clone()).temperature().unwrap();
         let dt = 1.0 / cfg.sample_rate_hz;
         let trajectory = Trajectory::new(&cfg.scheme, &Matrix3::identity(), &cfg.site).unwrap();
         let mut checkpoints: Vec<usize> = trajectory
@@ -230,6 +285,10 @@ mod tests {
                 dv: std::array::from_fn(|j| around(j).dv.into()),
                 dt,
                 t_mid: r(k).t - 0.5 * dt,
+                delta_c: curve.as_ref().map_or(0.0, |c| c.delta_c(r(k).t - 0.5 * dt)),
+                rate_c_per_s: curve
+                    .as_ref()
+                    .map_or(0.0, |c| c.rate_c_per_s(r(k).t - 0.5 * dt)),
                 accel_jacobian: Matrix3::identity(),
                 accel_jacobian_inv: Matrix3::identity(),
             };
@@ -345,6 +404,67 @@ mod tests {
             ..Effects::none()
         };
         check(effects, &params, Rows::Attitude, 1e-4);
+    }
+
+    /// The thermal states' columns, from the run's temperature as its
+    /// column gives it, against the simulator's p(T(t)) and k Ṫ on a hand
+    /// run whose temperature ramps 5 °C/min from 0 °C (fast, so that the
+    /// short run covers 50 °C) and holds.
+    #[test]
+    fn thermal_columns_follow_the_simulated_temperature() {
+        let plain = SimConfig {
+            temperature: Some(TemperatureHistory::Ramp {
+                start_c: 0.0,
+                rate_c_per_min: 5.0,
+                max_c: 50.0,
+            }),
+            ..config(Effects::none())
+        };
+        let linear = [
+            ("gyro_bias_x", 0.002),
+            ("gyro_scale_y", -0.3),
+            ("gyro_misalign_xz", 0.05),
+            ("accel_bias_z", 3.0),
+            ("accel_scale_x", 0.8),
+            ("accel_misalign_zy", -0.04),
+        ];
+        let k = [0.03, -0.02, 0.01];
+        let map = linear.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+        let truth = ThermalTruth::from_canonical(&map, &Default::default(), k).unwrap();
+        let cfg = SimConfig {
+            thermal: Some(truth),
+            ..plain.clone()
+        };
+        for rows in [Rows::Attitude, Rows::Velocity] {
+            let params: Vec<_> = linear
+                .iter()
+                .map(|(n, v)| {
+                    let i = crate::model::params::index_of(n).unwrap();
+                    let p = EffectParameter::ThermalLinear(i);
+                    (p, v * p.si_per_unit())
+                })
+                .chain((0..3).map(|i| {
+                    let p = EffectParameter::GyroBiasRate(i);
+                    (p, k[i] * p.si_per_unit())
+                }))
+                .filter(|(p, _)| effect_column(*p, &still()).0 == rows)
+                .collect();
+            check_against(&cfg, &plain, &params, rows, 1e-3);
+        }
+    }
+
+    /// A record at rest, for asking which rows a state drives.
+    fn still() -> RecordMotion {
+        RecordMotion {
+            dtheta: [Vector3::zeros(); 5],
+            dv: [Vector3::zeros(); 5],
+            dt: 0.05,
+            t_mid: 0.0,
+            delta_c: 1.0,
+            rate_c_per_s: 1.0,
+            accel_jacobian: Matrix3::identity(),
+            accel_jacobian_inv: Matrix3::identity(),
+        }
     }
 
     #[test]

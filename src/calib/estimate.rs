@@ -8,6 +8,7 @@
 
 use std::sync::atomic::AtomicBool;
 
+use super::effect_model::Effect;
 use super::error::CalibError;
 use super::kf_pass::{kf_pass, Pass};
 use super::lsq::lsq_pass;
@@ -18,6 +19,8 @@ use super::result::{
     AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, ParameterEstimate,
 };
 use super::run::{EstimatorKind, Progress, RecordSource, RunInfo};
+use super::temperature::{TemperatureCurve, THERMAL_SPAN_C};
+use super::thermal_states::{is_thermal, run_thermal};
 use super::walk::PassContext;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
@@ -49,11 +52,37 @@ pub fn estimate(
         fraction: 0.0,
         stage: "scanning the run".into(),
     });
+    let temperature = source.temperature()?;
+    let opts = &with_thermal_states(opts, temperature.as_ref())?;
     let scan = scan_run(source, run, opts, cancel)?;
     estimate_scanned(
-        &PassContext::new(source, run, opts, &scan, cancel),
+        &PassContext::new(source, run, opts, &scan, cancel).with_temperature(temperature),
         progress,
     )
+}
+
+/// The options a run is calibrated with: thermal states need the run's
+/// temperature column; `thermal_auto` adds them to a run whose
+/// temperature spans [`THERMAL_SPAN_C`] or more.
+fn with_thermal_states(
+    opts: &EstimateOptions,
+    temperature: Option<&TemperatureCurve>,
+) -> Result<EstimateOptions, CalibError> {
+    let mut opts = opts.clone();
+    let spanned = temperature.is_some_and(|c| c.span_c() >= THERMAL_SPAN_C);
+    if opts.model.has(Effect::Thermal) {
+        if temperature.is_none() {
+            return Err(CalibError::Options(format!(
+                "model {} carries thermal states, which follow the unit's temperature through \
+                 the run: this run has no temperature column (SPEC §3a); a soaked run's \
+                 parameters at several temperatures make a thermal model with `sinscal thermal`",
+                opts.model
+            )));
+        }
+    } else if opts.thermal_auto && spanned {
+        opts.model = opts.model.and(Effect::Thermal);
+    }
+    Ok(opts)
 }
 
 /// Calibrates a run already scanned (the discrepancy workflow keeps the
@@ -206,6 +235,17 @@ pub(crate) fn estimate_scanned(
             },
         );
     }
+    if let Some(curve) = ctx.temperature.as_ref() {
+        let span = curve.span_c();
+        if span >= THERMAL_SPAN_C && !opts.model.has(Effect::Thermal) {
+            warnings.push(format!(
+                "the unit's temperature spanned {span:.1} °C during the run, and its parameters \
+                 move with it: calibrate with thermal states (`--thermal`, model {}) to estimate \
+                 their coefficients",
+                opts.model.and(Effect::Thermal)
+            ));
+        }
+    }
     let mut effect_estimates = std::collections::BTreeMap::new();
     for (j, state) in effect_states.iter().enumerate() {
         let sigma = last.sigma[N_PARAMS + j];
@@ -217,6 +257,9 @@ pub(crate) fn estimate_scanned(
                 state.name(),
                 100.0 * sigma / prior_si
             ));
+        }
+        if is_thermal(*state) {
+            continue;
         }
         effect_estimates.insert(
             state.name(),
@@ -240,6 +283,22 @@ pub(crate) fn estimate_scanned(
             "only {n_dwells} dwells found; the base model needs a multi-position scheme"
         ));
     }
+    let thermal = match (opts.model.has(Effect::Thermal), ctx.temperature.as_ref()) {
+        (true, Some(curve)) => {
+            let covariance = last.covariance.as_ref().ok_or_else(|| {
+                CalibError::Numerical("the thermal states' pass kept no covariance".into())
+            })?;
+            let t = curve.summary();
+            Some(run_thermal(
+                &params,
+                &effect_states,
+                &effects,
+                covariance,
+                [t.min_c, t.max_c],
+            ))
+        }
+        _ => None,
+    };
     let (roll, pitch, heading) = euler_from_dcm(&last.c_b_n0);
     let dwell1 = first_dwell(scan)?;
     progress(Progress {
@@ -269,8 +328,10 @@ pub(crate) fn estimate_scanned(
         convergence: last.history,
         cross_check,
         model_check: last.model_check,
-        // The run's metadata states it; the caller that read it fills it.
-        temperature: None,
+        // From the column; a soaked run's metadata states it, and the
+        // caller that read the metadata fills it.
+        temperature: ctx.temperature.as_ref().map(TemperatureCurve::summary),
+        thermal,
     })
 }
 
@@ -289,6 +350,7 @@ fn lsq_as_pass(
         history: Convergence::default(),
         dwell_residuals: Vec::new(),
         model_check: None,
+        covariance: None,
     })
 }
 

@@ -104,6 +104,10 @@ pub(super) struct Pass {
     pub dwell_residuals: Vec<DwellResidual>,
     /// Whether the model explains the pass's zero-velocity residuals.
     pub model_check: Option<ModelCheck>,
+    /// The parameters' covariance, SI, in `delta`'s order (the filter's;
+    /// the in-run thermal result needs each value's correlation with its
+    /// coefficient).
+    pub covariance: Option<DMatrix<f64>>,
 }
 
 /// One pass of alignment and the filter over the records compensated with
@@ -193,5 +197,6 @@ pub(super) fn kf_pass(
         history,
         dwell_residuals,
         model_check,
+        covariance: Some(kf.parameter_covariance_si()?),
     })
 }

@@ -25,6 +25,8 @@ pub mod run;
 pub mod segment;
 pub mod sensitivity;
 pub mod sources;
+pub mod temperature;
+pub mod thermal_states;
 pub mod walk;
 
 pub use effect_model::{Effect, ErrorModel};

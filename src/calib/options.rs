@@ -51,6 +51,11 @@ pub struct EstimateOptions {
     pub prior_scale: f64,
     /// Run the least-squares cross-check after the filter.
     pub cross_check: bool,
+    /// Add the in-run thermal states (model `+thermal`) to a run whose
+    /// temperature column spans 3 °C or more; off, such a run's result
+    /// warns and proposes them. The server turns it on: a line's worker
+    /// has nobody to accept a proposal.
+    pub thermal_auto: bool,
     /// Most points in the convergence history. 500 over a 3 h run is a
     /// point every 23 s, finer than any dwell, and wider than a plot.
     pub history_points: usize,
@@ -71,6 +76,7 @@ impl Default for EstimateOptions {
             prior_scale: 4.0,
             cross_check: true,
             history_points: 500,
+            thermal_auto: false,
         }
     }
 }

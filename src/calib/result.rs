@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::misfit::ModelCheck;
 use super::segment::RunSegment;
+use super::thermal_states::RunThermal;
 
 /// One estimated parameter in its canonical unit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -139,6 +140,10 @@ pub struct CalibrationResult {
     /// The run's temperature, when its metadata or data state it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub temperature: Option<RunTemperature>,
+    /// With in-run thermal states (model `…+thermal`): the run's thermal
+    /// model, SPEC §3a's form; `parameters` are then the values at 25 °C.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<RunThermal>,
 }
 
 impl CalibrationResult {
@@ -175,6 +180,31 @@ impl CalibrationResult {
                 "{:<20} {:>14.5} {:>12.5}  {}",
                 name, p.value, p.sigma, p.unit
             );
+        }
+        if let Some(t) = &self.thermal {
+            let _ = writeln!(
+                out,
+                "thermal coefficients over {:.1}–{:.1} °C (per °C; k per °C/min):",
+                t.range_c[0], t.range_c[1]
+            );
+            for info in crate::model::PARAMETERS.iter() {
+                if let Some(l) = t.parameters.get(info.name).and_then(|p| p.linear) {
+                    let _ = writeln!(
+                        out,
+                        "{:<20} {:>14.6} {:>12.6}  {}/degC",
+                        info.name, l.value, l.sigma, info.unit
+                    );
+                }
+            }
+            for (axis, k) in &t.gyro_bias_rate {
+                let _ = writeln!(
+                    out,
+                    "{:<20} {:>14.6} {:>12.6}  deg/h/(degC/min)",
+                    format!("gyro_bias_rate_{axis}"),
+                    k.value,
+                    k.sigma
+                );
+            }
         }
         for w in &self.warnings {
             let _ = writeln!(out, "warning: {w}");

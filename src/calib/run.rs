@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::CalibError;
+use super::temperature::TemperatureCurve;
 use crate::nav::Site;
 use crate::record::Record;
 
@@ -15,6 +16,14 @@ pub trait RecordSource: Sync {
     fn records(
         &self,
     ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError>;
+
+    /// The unit's temperature through the run, when the run carries it
+    /// record by record (SPEC §3a's column); a soaked run, which states
+    /// one temperature in its metadata, and a run without temperature
+    /// have none. Sources that read files make one more streaming pass.
+    fn temperature(&self) -> Result<Option<TemperatureCurve>, CalibError> {
+        Ok(None)
+    }
 }
 
 /// What the estimator needs to know about a run besides its records.

@@ -8,6 +8,7 @@ use super::estimate::estimate;
 use super::options::EstimateOptions;
 use super::result::CalibrationResult;
 use super::run::{RecordSource, RunInfo};
+use super::temperature::TemperatureCurve;
 use crate::record::Record;
 use crate::sim::{simulate, SimConfig};
 
@@ -20,6 +21,23 @@ impl RecordSource for SimSource {
     ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
         let sim = simulate(&self.0).map_err(|e| CalibError::Source(e.to_string()))?;
         Ok(Box::new(sim.map(Ok)))
+    }
+
+    /// The simulated temperature once a second, as a file's column
+    /// decimates it (each point in the middle of its second).
+    fn temperature(&self) -> Result<Option<TemperatureCurve>, CalibError> {
+        if !self.0.temperature_column() {
+            return Ok(None);
+        }
+        let sim = simulate(&self.0).map_err(|e| CalibError::Source(e.to_string()))?;
+        let duration_s = sim.n_records() as f64 * sim.dt();
+        let points = (0..duration_s.floor() as u64)
+            .filter_map(|s| {
+                let t = s as f64 + 0.5;
+                sim.temperature_c(t).map(|c| (t, c))
+            })
+            .collect();
+        Ok(TemperatureCurve::from_points(points))
     }
 }
 

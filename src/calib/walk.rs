@@ -20,6 +20,7 @@ use super::priors::{initial_navigation_covariance, prior_sigma};
 use super::run::{RecordSource, RunInfo};
 use super::sensitivity::base_columns;
 use super::sensitivity::Rows;
+use super::temperature::TemperatureCurve;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{Compensator, N_PARAMS};
 use crate::nav::attitude::skew;
@@ -42,6 +43,9 @@ pub(crate) struct PassContext<'a> {
     pub arw: f64,
     pub vrw: f64,
     pub cancel: &'a AtomicBool,
+    /// The unit's temperature through the run (SPEC §3a), when the run
+    /// has a temperature column: what the thermal states' columns follow.
+    pub temperature: Option<TemperatureCurve>,
 }
 
 impl PassContext<'_> {
@@ -100,6 +104,15 @@ impl<'a> PassContext<'a> {
             arw: arw.max(MIN_ARW),
             vrw: vrw.max(MIN_VRW),
             cancel,
+            temperature: None,
+        }
+    }
+
+    /// The context with the run's temperature history.
+    pub fn with_temperature(self, temperature: Option<TemperatureCurve>) -> Self {
+        PassContext {
+            temperature,
+            ..self
         }
     }
 }
@@ -205,11 +218,18 @@ pub(crate) fn walk(
         let motion = (!effects.is_empty()).then(|| {
             let jacobian = comp.accel_jacobian(&Vector3::from(r.dv), dt);
             let near = |j: usize| around[(at + j).saturating_sub(NEIGHBOURS).min(around.len() - 1)];
+            let t_mid = r.t - 0.5 * dt;
+            let (delta_c, rate_c_per_s) = ctx
+                .temperature
+                .as_ref()
+                .map_or((0.0, 0.0), |c| (c.delta_c(t_mid), c.rate_c_per_s(t_mid)));
             RecordMotion {
                 dtheta: std::array::from_fn(|j| near(j).dtheta.into()),
                 dv: std::array::from_fn(|j| near(j).dv.into()),
                 dt,
-                t_mid: r.t - 0.5 * dt - ctx.scan.t_begin,
+                t_mid: t_mid - ctx.scan.t_begin,
+                delta_c,
+                rate_c_per_s,
                 accel_jacobian: jacobian,
                 accel_jacobian_inv: jacobian.try_inverse().unwrap_or(jacobian),
             }

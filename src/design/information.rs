@@ -134,6 +134,10 @@ fn add_step(
         dv: std::array::from_fn(|i| around[i].f_b * h),
         dt: h,
         t_mid,
+        // Planning has no temperature history: thermal states would see
+        // none of their signature.
+        delta_c: 0.0,
+        rate_c_per_s: 0.0,
         accel_jacobian: Matrix3::identity(),
         accel_jacobian_inv: Matrix3::identity(),
     };

@@ -37,12 +37,9 @@ pub struct SoakedRun {
     pub parameters: BTreeMap<String, ParameterEstimate>,
 }
 
-/// A coefficient with its 1-σ.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Term {
-    pub value: f64,
-    pub sigma: f64,
-}
+/// A coefficient with its 1-σ (the in-run thermal result's, one form for
+/// both models).
+pub use crate::calib::thermal_states::Term;
 
 /// One parameter's model (SPEC §3a's form, and what prediction needs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

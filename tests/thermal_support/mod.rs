@@ -6,7 +6,9 @@
 use std::collections::BTreeMap;
 
 use sinscal::calib::sources::calibrate_simulated;
+use sinscal::calib::thermal_states::RunThermal;
 use sinscal::calib::EstimateOptions;
+use sinscal::model::thermal::{TemperatureHistory, ThermalTruth};
 use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::Site;
 use sinscal::sim::{Noise, Scheme, SimConfig};
@@ -136,4 +138,82 @@ pub fn quadratic_errors(model: &ThermalModel) -> (Vec<String>, Vec<String>) {
         }
     }
     (invented, missed)
+}
+
+/// k per gyro, deg/h per (°C/min): an RLG's bias under a temperature
+/// gradient, a few hundredths at most.
+pub const GYRO_BIAS_RATE: [f64; 3] = [0.02, -0.015, 0.01];
+
+/// The chamber's profile for the in-run test: 10 °C rising 0.2 °C/min to
+/// 50 °C (200 min), then held.
+pub fn ramp_history() -> TemperatureHistory {
+    TemperatureHistory::Ramp {
+        start_c: 10.0,
+        rate_c_per_min: 0.2,
+        max_c: 50.0,
+    }
+}
+
+/// `ten-position-9+9` three times over with 300 s dwells (57 dwells, 4.8
+/// h): the turns that show the scale factors and mountings at many
+/// temperatures along the ramp.
+pub fn ramp_scheme() -> Scheme {
+    let once = Scheme::builtin("ten-position-9+9", 300.0).unwrap();
+    let mut steps = once.steps.clone();
+    for _ in 1..3 {
+        // Each repeat starts where the last ended; its first dwell would
+        // double the last one.
+        steps.extend(once.steps[1..].iter().copied());
+    }
+    Scheme {
+        name: "ten-position-9+9 x3".into(),
+        steps,
+    }
+}
+
+/// The unit's SPEC §3a truth for a run across temperature: every linear
+/// coefficient of [`linear`] and the gyro bias against Ṫ; no quadratic
+/// terms, which the in-run states do not carry (soaks find them).
+pub fn ramp_truth() -> ThermalTruth {
+    let lin: BTreeMap<String, f64> = linear()
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), v))
+        .collect();
+    ThermalTruth::from_canonical(&lin, &BTreeMap::new(), GYRO_BIAS_RATE).unwrap()
+}
+
+/// [`ramp_scheme`] at 20 Hz while the chamber ramps 10 → 50 °C and
+/// holds, navigation-grade noise; the parameters at 25 °C are the
+/// paper's Table 1 values.
+pub fn ramp_config(seed: u64) -> SimConfig {
+    SimConfig {
+        scheme: ramp_scheme(),
+        params: ErrorParameters::paper(),
+        thermal: Some(ramp_truth()),
+        temperature: Some(ramp_history()),
+        ..soak_config(REFERENCE_C, seed)
+    }
+}
+
+/// A ramp result's thermal coefficients against the truth: (name, z) for
+/// the 21 linear coefficients the states carry and the three k.
+pub fn ramp_coefficient_z(thermal: &RunThermal) -> Vec<(String, f64)> {
+    let truth = ramp_truth();
+    let mut out = Vec::new();
+    for (i, p) in PARAMETERS.iter().enumerate() {
+        if let Some(l) = thermal.parameters[p.name].linear {
+            out.push((
+                format!("{} linear", p.name),
+                (l.value - truth.linear(i)) / l.sigma,
+            ));
+        }
+    }
+    for (axis, k) in ["x", "y", "z"].iter().zip(GYRO_BIAS_RATE) {
+        let got = thermal.gyro_bias_rate[*axis];
+        out.push((
+            format!("gyro_bias_rate {axis}"),
+            (got.value - k) / got.sigma,
+        ));
+    }
+    out
 }
