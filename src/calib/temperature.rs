@@ -164,7 +164,8 @@ mod tests {
             .map(|k| c.rate_c_per_s(a + (k as f64 + 0.5) * h) * h)
             .sum();
         let change = c.temperature_c(b) - c.temperature_c(a);
-        assert!((integral - change).abs() < 1e-3, "{integral} {change}");
+        // Within the column's 0.01 °C steps.
+        assert!((integral - change).abs() < 0.01, "{integral} {change}");
     }
 
     #[test]
