@@ -10,7 +10,9 @@ use crate::calib::temperature::TemperatureCurve;
 use crate::calib::{
     self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo,
 };
-use crate::compensation::{Compensated, CompensationFile};
+use crate::compensation::thermal::ThermalTerms;
+use crate::compensation::CompensationFile;
+use crate::model::{Compensator, ErrorParameters, Group};
 use crate::io::data::{
     DataError, DataFormat, ReadLimits, RecordReader, RecordWriter, WriteOptions,
 };
@@ -69,37 +71,41 @@ impl RecordSource for FileSource {
     /// The `temp_c` column: one more streaming pass, made only when the
     /// header (CSV) or the metadata (f64le) says there is a column.
     fn temperature(&self) -> Result<Option<TemperatureCurve>, CalibError> {
-        let source_error = |e: DataError| CalibError::Source(e.to_string());
-        let mut reader = RecordReader::open_with_limits(
-            &self.path,
-            self.format,
-            self.sample_rate_hz,
-            self.limits,
-        )
-        .map_err(source_error)?
-        .with_temperature_column(self.temperature_column);
-        if !reader.has_temperature() {
-            return Ok(None);
-        }
-        for record in reader.by_ref() {
-            record.map_err(source_error)?;
-        }
-        let Some(t) = reader.temperature_summary() else {
-            return Ok(None);
-        };
-        let summary = RunTemperature {
-            mean_c: t.mean_c,
-            min_c: t.min_c,
-            max_c: t.max_c,
-            max_rate_c_per_min: t.max_rate_c_per_min.unwrap_or(0.0),
-        };
-        let points = reader
-            .temperature_history()
-            .into_iter()
-            .map(|p| (p.t_s, p.temp_c))
-            .collect();
-        Ok(TemperatureCurve::new(points, summary))
+        temperature_curve(self).map_err(|e| CalibError::Source(e.to_string()))
     }
+}
+
+/// The run's temperature through it from its `temp_c` column, one
+/// streaming pass; `None` without a column.
+fn temperature_curve(source: &FileSource) -> Result<Option<TemperatureCurve>, DataError> {
+    let mut reader = RecordReader::open_with_limits(
+        &source.path,
+        source.format,
+        source.sample_rate_hz,
+        source.limits,
+    )?
+    .with_temperature_column(source.temperature_column);
+    if !reader.has_temperature() {
+        return Ok(None);
+    }
+    for record in reader.by_ref() {
+        record?;
+    }
+    let Some(t) = reader.temperature_summary() else {
+        return Ok(None);
+    };
+    let summary = RunTemperature {
+        mean_c: t.mean_c,
+        min_c: t.min_c,
+        max_c: t.max_c,
+        max_rate_c_per_min: t.max_rate_c_per_min.unwrap_or(0.0),
+    };
+    let points = reader
+        .temperature_history()
+        .into_iter()
+        .map(|p| (p.t_s, p.temp_c))
+        .collect();
+    Ok(TemperatureCurve::new(points, summary))
 }
 
 /// Calibrates the run in `data` described by `meta`.
@@ -227,6 +233,66 @@ pub fn compensate_file(
     })
 }
 
+/// The parameters a compensation file puts in force over a run: its own,
+/// or with thermal terms, at the run's temperature (a soak's metadata, or
+/// the column at mid-record, with k Ṫ on the gyro biases).
+enum ParametersInForce {
+    Fixed(Compensator),
+    Following {
+        at_reference: ErrorParameters,
+        terms: Box<ThermalTerms>,
+        temperature: TemperatureCurve,
+    },
+}
+
+impl ParametersInForce {
+    fn new(
+        data: &Path,
+        meta: &RunMetadata,
+        file: &CompensationFile,
+    ) -> Result<Self, CompensateError> {
+        let Some(terms) = &file.thermal else {
+            return Ok(Self::Fixed(file.parameters().compensator()));
+        };
+        if let Some(t) = meta.temperature_c {
+            return Ok(Self::Fixed(file.parameters_at(t).compensator()));
+        }
+        let (source, _) = FileSource::of_run(data, meta);
+        match temperature_curve(&source)? {
+            Some(temperature) => Ok(Self::Following {
+                at_reference: file.parameters(),
+                terms: Box::new(terms.clone()),
+                temperature,
+            }),
+            None => Err(CompensateError::Refused(
+                "the compensation carries thermal terms and the run states no temperature \
+                 (neither metadata temperature_c nor a temp_c column): its parameters at the \
+                 unit's temperature are unknown"
+                    .into(),
+            )),
+        }
+    }
+
+    /// The compensator for a record whose middle is at `t_mid`.
+    fn at(&self, t_mid: f64) -> std::borrow::Cow<'_, Compensator> {
+        match self {
+            Self::Fixed(c) => std::borrow::Cow::Borrowed(c),
+            Self::Following {
+                at_reference,
+                terms,
+                temperature,
+            } => {
+                let mut p = terms.parameters_at(at_reference, temperature.temperature_c(t_mid));
+                let k = terms.gyro_bias_from_rate(temperature.rate_c_per_s(t_mid));
+                for (b, dk) in p.si[Group::GyroBias.range()].iter_mut().zip(k.iter()) {
+                    *b += dk;
+                }
+                std::borrow::Cow::Owned(p.compensator())
+            }
+        }
+    }
+}
+
 /// The output must not replace the input's data, nor its sidecar.
 fn check_compensate_paths(data: &Path, target: &CompensateTarget) -> Result<(), CompensateError> {
     let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
@@ -282,11 +348,14 @@ fn write_compensated(
     let mut writer =
         RecordWriter::create(&target.data, target.format, &options).map_err(write_err)?;
     let mut records = 0;
-    // The temperature column, if any, passes through unchanged.
-    let mut compensated = Compensated::new(reader, &file.parameters(), meta.sample_rate_hz);
-    while let Some(rec) = compensated.next() {
+    let parameters = ParametersInForce::new(data, meta, file)?;
+    let dt = 1.0 / meta.sample_rate_hz;
+    let mut reader = reader;
+    while let Some(rec) = reader.next() {
         let rec = rec?;
-        match compensated.inner().temperature_c() {
+        let rec = parameters.at(rec.t - 0.5 * dt).record(&rec, dt);
+        // The temperature column, if any, passes through unchanged.
+        match reader.temperature_c() {
             Some(temp_c) => writer.write_record_with_temperature(&rec, temp_c),
             None => writer.write_record(&rec),
         }

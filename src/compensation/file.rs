@@ -6,9 +6,11 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::convention::Convention;
+use super::thermal::ThermalTerms;
 use crate::calib::CalibrationResult;
 use crate::model::params::ParameterError;
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
+use crate::thermal::ThermalModel;
 
 /// The `format` tag every compensation file carries, by which a reader
 /// tells it from a calibration result.
@@ -102,13 +104,17 @@ pub struct CompensationFile {
     pub convention: Convention,
     pub gyro: GyroTerms,
     pub accel: AccelTerms,
+    /// How the terms move with temperature, when a thermal model is known
+    /// (the calibration's in-run states, or the unit's model across runs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thermal: Option<ThermalTerms>,
 }
 
-fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
+pub(super) fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
     [0, 1, 2].map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]])
 }
 
-fn matrix(r: &[[f64; 3]; 3]) -> Matrix3<f64> {
+pub(super) fn matrix(r: &[[f64; 3]; 3]) -> Matrix3<f64> {
     Matrix3::from_fn(|i, j| r[i][j])
 }
 
@@ -155,6 +161,7 @@ impl CompensationFile {
                 quadratic_s2_per_m: params.d_a().into(),
                 quadratic_sigma_s2_per_m: sig.map(|s| s.d_a().into()),
             },
+            thermal: None,
         }
     }
 
@@ -184,9 +191,41 @@ impl CompensationFile {
             effects_not_applied: result.effects.keys().cloned().collect(),
             ..provenance
         };
-        let file = Self::from_parameters(&params, Some(&sigma), provenance);
+        let mut file = Self::from_parameters(&params, Some(&sigma), provenance);
+        file.thermal = result.thermal.as_ref().map(ThermalTerms::of_run);
         file.validate()?;
         Ok(file)
+    }
+
+    /// A file for a unit's thermal model across its runs: its values and
+    /// σ at 25 °C, and its coefficients as the thermal terms.
+    pub fn from_thermal_model(
+        model: &ThermalModel,
+        provenance: Provenance,
+    ) -> Result<Self, CompensationError> {
+        let (mut values, mut sigma) = (std::collections::BTreeMap::new(), [0.0; N_PARAMS]);
+        for (s, info) in sigma.iter_mut().zip(PARAMETERS.iter()) {
+            let p = model.parameters.get(info.name).ok_or_else(|| {
+                CompensationError::Invalid(format!("the thermal model has no {}", info.name))
+            })?;
+            values.insert(info.name.to_string(), p.value);
+            *s = p.sigma * info.si_per_unit;
+        }
+        let params = ErrorParameters::from_canonical(&values)?;
+        let mut file = Self::from_parameters(&params, Some(&sigma), provenance);
+        file.thermal = Some(ThermalTerms::of_unit(model));
+        file.validate()?;
+        Ok(file)
+    }
+
+    /// The parameters at `temperature_c`: the file's own without thermal
+    /// terms.
+    pub fn parameters_at(&self, temperature_c: f64) -> ErrorParameters {
+        let p = self.parameters();
+        match &self.thermal {
+            Some(t) => t.parameters_at(&p, temperature_c),
+            None => p,
+        }
     }
 
     /// The 24 parameters the file holds, in SI.
@@ -227,6 +266,9 @@ impl CompensationFile {
                 "format_version {} is not {FORMAT_VERSION}, the one this version reads",
                 self.format_version
             ));
+        }
+        if let Some(t) = &self.thermal {
+            t.validate().map_err(CompensationError::Invalid)?;
         }
         let params = self.parameters();
         if let Some(i) = params.si.iter().position(|v| !v.is_finite()) {

@@ -8,12 +8,15 @@
 //!   written and read back, validated);
 //! - `table`: its CSV form;
 //! - `convention`: the words the file states about its numbers;
+//! - `thermal`: the file's thermal terms (SPEC §3a), from a run's in-run
+//!   states or a unit's model across runs;
 //! - `apply`: [`Compensated`], records in, compensated records out.
 
 pub mod apply;
 pub mod convention;
 pub mod file;
 pub mod table;
+pub mod thermal;
 
 pub use apply::Compensated;
 pub use convention::Convention;

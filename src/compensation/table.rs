@@ -5,6 +5,7 @@
 use std::fmt::Write;
 
 use super::file::{CompensationFile, FORMAT_TAG, FORMAT_VERSION};
+use super::thermal::{ThermalSource, ThermalTerms};
 use crate::model::{Group, PARAMETERS};
 
 /// The CSV's column header.
@@ -111,6 +112,50 @@ impl CompensationFile {
                 si_unit(info.group)
             );
         }
+        if let Some(t) = &self.thermal {
+            thermal_rows(&mut out, t);
+        }
         out
+    }
+}
+
+/// The thermal terms as rows after the parameters: every parameter's
+/// linear coefficient (`gyro_bias_x.linear`, `b_g[0]/degC`), the quadratic
+/// ones when the model has them, and k per gyro (`gyro_bias_rate_x`,
+/// `k[0]`); the source, reference and range in a comment line before them.
+fn thermal_rows(out: &mut String, t: &ThermalTerms) {
+    let source = match t.source {
+        ThermalSource::Run => "run",
+        ThermalSource::Unit => "unit",
+    };
+    let _ = writeln!(
+        out,
+        "# thermal ({source}): term(T) = term + linear dT + quadratic dT^2, dT = T - {} degC, \
+         fitted over {}..{} degC; gyro bias + k dT/dt",
+        t.reference_c, t.range_c[0], t.range_c[1]
+    );
+    let mut terms = vec![("linear", "degC", t.linear_per_c.si())];
+    if let Some(q) = &t.quadratic_per_c2 {
+        terms.push(("quadratic", "degC^2", q.si()));
+    }
+    for (term, per, values) in terms {
+        for (i, info) in PARAMETERS.iter().enumerate() {
+            let _ = writeln!(
+                out,
+                "{}.{term},{}/{per},{},{}/{per},",
+                info.name,
+                symbol(i),
+                number(values[i]),
+                si_unit(info.group)
+            );
+        }
+    }
+    for (i, k) in t.gyro_bias_rad_per_s_per_c_per_s.iter().enumerate() {
+        let _ = writeln!(
+            out,
+            "gyro_bias_rate_{},k[{i}],{},rad/s/(degC/s),",
+            ["x", "y", "z"][i],
+            number(*k)
+        );
     }
 }

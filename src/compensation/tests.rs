@@ -136,3 +136,81 @@ fn validation_refuses_what_a_loader_would_misread() {
     assert!(CompensationFile::from_json(tag.to_json().as_bytes()).is_err());
     assert!(file.validate().is_ok());
 }
+
+/// A result with in-run thermal states gives a file whose terms at any
+/// temperature are the result's linear model (and k in SI); the terms
+/// survive JSON and appear as CSV rows. A unit's model across soaks gives
+/// its 25 °C values and its linear and quadratic terms.
+#[test]
+fn thermal_terms_come_from_a_run_or_a_unit_model() {
+    use crate::calib::thermal_states::{RunThermal, RunThermalParameter, Term};
+    use crate::thermal::{fit_thermal_model, SoakedRun};
+    let p = ErrorParameters::paper();
+    let mut res = result(&p);
+    let parameters = res
+        .parameters
+        .iter()
+        .map(|(name, e)| {
+            let linear = (name == "accel_bias_y").then_some(Term {
+                value: 2.5,
+                sigma: 0.1,
+            });
+            let q = RunThermalParameter {
+                value: e.value,
+                sigma: e.sigma,
+                unit: e.unit.clone(),
+                linear,
+                covariance: Vec::new(),
+            };
+            (name.clone(), q)
+        })
+        .collect();
+    let k = Term {
+        value: 0.02,
+        sigma: 0.003,
+    };
+    res.model = "base-24+thermal".into();
+    res.thermal = Some(RunThermal {
+        parameters,
+        gyro_bias_rate: [("z".to_string(), k)].into_iter().collect(),
+        range_c: [10.0, 50.0],
+    });
+    let file = CompensationFile::from_result(&res, Provenance::default()).unwrap();
+    let back = CompensationFile::from_json(file.to_json().as_bytes()).unwrap();
+    let t = back.thermal.as_ref().unwrap();
+    assert_eq!(t.source, thermal::ThermalSource::Run);
+    let i = crate::model::params::index_of("accel_bias_y").unwrap();
+    let at_45 = back.parameters_at(45.0);
+    let expect = p.si[i] + 2.5 * PARAMETERS[i].si_per_unit * 20.0;
+    assert!((at_45.si[i] - expect).abs() < 1e-15, "{} {expect}", at_45.si[i]);
+    assert_eq!(back.parameters_at(45.0).si[0], p.si[0]);
+    // 0.02 deg/h per °C/min, in rad/s per °C/s.
+    let k_si = 0.02 * crate::model::units::DEG_PER_H * 60.0;
+    assert!(same(t.gyro_bias_rad_per_s_per_c_per_s[2], k_si));
+    let csv = back.to_csv();
+    assert!(csv.contains("# thermal (run)"), "{csv}");
+    assert!(csv.contains("accel_bias_y.linear,b_a[1]/degC,"), "{csv}");
+    assert!(csv.contains("gyro_bias_rate_z,k[2],"), "{csv}");
+
+    // Three soaks of a unit whose accel_bias_x moves 2 µg/°C.
+    let runs: Vec<SoakedRun> = [-10.0, 25.0, 60.0]
+        .into_iter()
+        .map(|temperature_c| {
+            let mut r = result(&p);
+            r.parameters.get_mut("accel_bias_x").unwrap().value += 2.0 * (temperature_c - 25.0);
+            SoakedRun {
+                label: format!("{temperature_c}"),
+                temperature_c,
+                parameters: r.parameters,
+            }
+        })
+        .collect();
+    let model = fit_thermal_model(&runs).unwrap();
+    let file = CompensationFile::from_thermal_model(&model, Provenance::default()).unwrap();
+    let t = file.thermal.as_ref().unwrap();
+    assert_eq!((t.source, t.range_c), (thermal::ThermalSource::Unit, [-10.0, 60.0]));
+    let j = crate::model::params::index_of("accel_bias_x").unwrap();
+    let slope = t.linear_per_c.si()[j] / PARAMETERS[j].si_per_unit;
+    assert!((slope - 2.0).abs() < 1e-9, "{slope}");
+    assert!((file.parameters().si[j] - p.si[j]).abs() < 1e-12);
+}
