@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use anyhow::Context;
 use sinscal::calib::CalibrationResult;
+use sinscal::compensation::{CompensationFile, Provenance};
 use sinscal::io::meta::write_json;
 use sinscal::model::PARAMETERS;
 use sinscal::thermal::{fit_thermal_model, SoakedRun};
@@ -28,6 +29,11 @@ pub struct ThermalArgs {
     /// Predict at `--at` even outside the fitted range.
     #[arg(long)]
     pub extrapolate: bool,
+    /// Also write the model as a compensation file (CONTRACT §5a): its
+    /// 25 °C values, and its coefficients as thermal terms; CSV when the
+    /// name ends in `.csv`.
+    #[arg(long)]
+    pub compensation: Option<PathBuf>,
 }
 
 fn soaked_run(arg: &str) -> anyhow::Result<SoakedRun> {
@@ -126,5 +132,18 @@ pub fn run_thermal(a: &ThermalArgs) -> anyhow::Result<()> {
     }
     write_json(&a.out, &model)?;
     eprintln!("wrote {}", a.out.display());
+    if let Some(path) = &a.compensation {
+        let provenance = Provenance {
+            source: Some(a.out.display().to_string()),
+            model: "base-24".into(),
+            model_check_adequate: Some(model.check.adequate),
+            ..Provenance::default()
+        };
+        let file = CompensationFile::from_thermal_model(&model, provenance)?;
+        let csv = path.extension().is_some_and(|e| e == "csv");
+        let text = if csv { file.to_csv() } else { file.to_json() };
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
     Ok(())
 }

@@ -12,12 +12,12 @@ use crate::calib::{
 };
 use crate::compensation::thermal::ThermalTerms;
 use crate::compensation::CompensationFile;
-use crate::model::{Compensator, ErrorParameters, Group};
 use crate::io::data::{
     DataError, DataFormat, ReadLimits, RecordReader, RecordWriter, WriteOptions,
 };
 use crate::io::meta::{write_json, MetaError, RunMetadata};
 use crate::io::run::metadata_sidecar;
+use crate::model::{Compensator, ErrorParameters, Group};
 use crate::noise::{NoiseError, NoiseOptions, NoiseReport};
 use crate::record::Record;
 

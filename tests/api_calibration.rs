@@ -353,8 +353,35 @@ async fn a_unit_s_thermal_model_from_its_soaked_runs() {
         z.abs() < 3.0,
         "accel_bias_x slope {slope} against {truth}: {z:.2} σ"
     );
+    // The model as a compensation file: its 25 °C values and its slopes as
+    // the thermal terms, JSON and CSV.
+    let file = app
+        .get_json(&format!("/units/{serial}/thermal/compensation"))
+        .await;
+    let t = &file["thermal"];
+    assert_eq!(t["source"], "unit");
+    assert_eq!(t["range_c"], serde_json::json!([-20.0, 65.0]));
+    let slope_si = t["linear_per_c"]["accel_bias_m_per_s2"][0]
+        .as_f64()
+        .unwrap();
+    let slope_ug = slope["value"].as_f64().unwrap();
+    assert!((slope_si / (slope_ug * 1e-6 * 9.80665) - 1.0).abs() < 1e-9);
+    let csv = app
+        .get(
+            &app.admin,
+            &format!("/units/{serial}/thermal/compensation?format=csv"),
+        )
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(csv.contains("# thermal (unit)"), "{csv}");
     let station = app.create_token("station").await;
     let r = app.get(&station, &format!("/units/{serial}/thermal")).await;
+    assert_eq!(r.status(), StatusCode::FORBIDDEN);
+    let r = app
+        .get(&station, &format!("/units/{serial}/thermal/compensation"))
+        .await;
     assert_eq!(r.status(), StatusCode::FORBIDDEN);
     let r = app.get(&app.admin, "/units/RLG-NONE/thermal").await;
     assert_eq!(r.status(), StatusCode::NOT_FOUND);
@@ -382,5 +409,68 @@ async fn a_unit_s_thermal_model_from_its_soaked_runs() {
         24 + 24,
         "trend and thermal charts"
     );
+    app.stop().await;
+}
+
+/// A run whose temperature column spans more than 3 °C is calibrated by the
+/// server with the in-run thermal states (`--thermal-auto`, on by
+/// default): its result carries the SPEC §3a thermal object and its
+/// compensation file the thermal terms; the run page shows the
+/// coefficients. A soaked run of the same unit is calibrated without them.
+#[tokio::test]
+async fn a_ramped_run_is_calibrated_with_thermal_states() {
+    let app = spawn_app(2).await;
+    let dir = tempfile::tempdir().unwrap();
+    let serial = "RLG-RAMP";
+    // The 9+9 scheme with 60 s dwells (~25 min) at 20 Hz while the chamber
+    // rises 2 °C/min from 10 to 30 °C and holds.
+    let mut cfg = sim_config(7, ErrorParameters::paper(), "ten-position-9+9", 60.0);
+    cfg.sample_rate_hz = 20.0;
+    cfg.thermal = Some(thermal_support::ramp_truth());
+    cfg.temperature = Some(sinscal::model::thermal::TemperatureHistory::Ramp {
+        start_c: 10.0,
+        rate_c_per_min: 2.0,
+        max_c: 30.0,
+    });
+    let ramped = simulate_run(dir.path(), &cfg, DataFormat::Csv, false, serial, None);
+    let (id, job) = app
+        .upload_and_calibrate(serial, &ramped, Duration::from_secs(240))
+        .await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    let result = app.get_result(&id).await;
+    assert_eq!(result["model"], "base-24+thermal");
+    let thermal = &result["thermal"];
+    let range = thermal["range_c"].as_array().unwrap();
+    assert!(
+        (range[1].as_f64().unwrap() - 30.0).abs() < 1e-9,
+        "{thermal}"
+    );
+    let k = &thermal["gyro_bias_rate"]["x"];
+    let truth = thermal_support::GYRO_BIAS_RATE[0];
+    let z = (k["value"].as_f64().unwrap() - truth) / k["sigma"].as_f64().unwrap();
+    assert!(z.abs() < 4.0, "k_x {k} against {truth}: {z:.2}σ");
+    let file = app.get_json(&format!("/runs/{id}/compensation")).await;
+    assert_eq!(file["thermal"]["source"], "run");
+    assert_eq!(file["provenance"]["model"], "base-24+thermal");
+    let page = app.sign_in(&app.admin).await;
+    let html = page.get(&format!("/runs/{id}")).await.text().await.unwrap();
+    assert!(
+        html.contains("id=\"thermal-coefficients\""),
+        "the run page shows them"
+    );
+    assert!(html.contains("gyro_bias_rate"), "and k");
+
+    let soak = dir.path().join("soak");
+    std::fs::create_dir_all(&soak).unwrap();
+    let mut cfg = sim_config(8, ErrorParameters::paper(), "ten-position", 30.0);
+    cfg.sample_rate_hz = 20.0;
+    let soaked = simulate_run(&soak, &cfg, DataFormat::F64le, false, serial, None);
+    let (id, job) = app
+        .upload_and_calibrate(serial, &soaked, Duration::from_secs(240))
+        .await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    let result = app.get_result(&id).await;
+    assert_eq!(result["model"], "base-24");
+    assert!(result.get("thermal").is_none());
     app.stop().await;
 }

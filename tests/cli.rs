@@ -435,13 +435,25 @@ fn thermal_fits_results_at_their_temperatures() {
         "{err}"
     );
     args[2].push_str("@50");
+    let compensation = dir.path().join("compensation.csv");
     let text = stdout_of(
         sinscal()
             .arg("thermal")
             .args(&args)
             .args(["--at", "40", "--out"])
-            .arg(&out),
+            .arg(&out)
+            .arg("--compensation")
+            .arg(&compensation),
     );
+    // The model as a compensation file: 0.1 deg/h per °C on gyro_bias_x.
+    let csv = std::fs::read_to_string(&compensation).unwrap();
+    let slope = 0.1 * std::f64::consts::PI / 180.0 / 3600.0;
+    let row = csv
+        .lines()
+        .find(|l| l.starts_with("gyro_bias_x.linear,b_g[0]/degC,"))
+        .unwrap_or_else(|| panic!("{csv}"));
+    let value: f64 = row.split(',').nth(2).unwrap().parse().unwrap();
+    assert!((value / slope - 1.0).abs() < 1e-9, "{row}");
     assert!(
         text.contains("fitted over 0.0–50.0 °C from 3 runs"),
         "{text}"

@@ -117,11 +117,17 @@ fn compensating_with_thermal_terms_follows_the_run_s_temperature() {
         r.parameters
             .iter()
             .map(|(n, p)| (n.clone(), (p.value / p.sigma).abs()))
-            .fold((String::new(), 0.0f64), |a, b| if b.1 > a.1 { b } else { a })
+            .fold(
+                (String::new(), 0.0f64),
+                |a, b| if b.1 > a.1 { b } else { a },
+            )
     };
     let (name, z) = worst_z(&thermal);
     eprintln!("with thermal terms: largest {name} at {z:.2}σ");
-    assert!(z < 3.5, "{name}: {z:.2}σ from zero after thermal compensation");
+    assert!(
+        z < 3.5,
+        "{name}: {z:.2}σ from zero after thermal compensation"
+    );
     assert!(thermal.model_check.as_ref().unwrap().adequate);
     let (name, z) = worst_z(&plain);
     eprintln!("25 °C terms alone: largest {name} at {z:.2}σ");

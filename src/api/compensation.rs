@@ -23,7 +23,7 @@ pub fn router() -> Router<AppState> {
 /// The file's two forms.
 #[derive(Clone, Copy, Debug, Default, Deserialize)]
 #[serde(rename_all = "lowercase")]
-enum FileForm {
+pub(crate) enum FileForm {
     #[default]
     Json,
     Csv,
@@ -45,12 +45,17 @@ async fn get_compensation(
     let id = parse_id(path?.0, "run")?;
     let Query(q) = query?;
     let file = compensation_of(&st, &id).await?;
-    Ok(match q.format {
+    Ok(file_response(&file, q.format))
+}
+
+/// A compensation file as the response in the form asked for.
+pub(crate) fn file_response(file: &CompensationFile, form: FileForm) -> Response {
+    match form {
         FileForm::Json => {
             ([(header::CONTENT_TYPE, "application/json")], file.to_json()).into_response()
         }
         FileForm::Csv => ([(header::CONTENT_TYPE, "text/csv")], file.to_csv()).into_response(),
-    })
+    }
 }
 
 /// The compensation file of a run's result (the API's and the run page's

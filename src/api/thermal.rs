@@ -1,21 +1,26 @@
 //! `GET /units/{serial}/thermal`: the unit's thermal model (SPEC §3a) from
 //! its calibrated runs that state a temperature, chosen by a filter. It is
 //! fitted on each request from the stored results (24 small fits), so it
-//! always includes the latest run to land.
+//! always includes the latest run to land. `…/thermal/compensation` is
+//! the model as a compensation file (CONTRACT §5a): its 25 °C values and
+//! its coefficients as the file's thermal terms.
 
 use std::collections::BTreeMap;
 
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
+use axum::response::Response;
 use axum::routing::get;
 use axum::{Json, Router};
 use serde::Deserialize;
 
 use super::auth::{roles, Auth};
+use super::compensation::{file_response, FileForm};
 use super::error::ApiError;
 use super::{parse_time, AppState};
 use crate::accept::VerdictStatus;
 use crate::calib::ParameterEstimate;
+use crate::compensation::{CompensationFile, Provenance};
 use crate::io::meta::validate_serial;
 use crate::thermal::{fit_thermal_model, SoakedRun, ThermalModel};
 
@@ -23,7 +28,12 @@ use crate::thermal::{fit_thermal_model, SoakedRun, ThermalModel};
 pub const DEFAULT_MAX_SPAN_C: f64 = 2.0;
 
 pub fn router() -> Router<AppState> {
-    Router::new().route("/units/{serial}/thermal", get(get_thermal))
+    Router::new()
+        .route("/units/{serial}/thermal", get(get_thermal))
+        .route(
+            "/units/{serial}/thermal/compensation",
+            get(get_thermal_compensation),
+        )
 }
 
 /// Which of the unit's runs the model is fitted from.
@@ -48,6 +58,51 @@ async fn get_thermal(
     validate_serial(&serial).map_err(ApiError::BadRequest)?;
     let Query(q) = query?;
     Ok(Json(unit_thermal_model(&st, &serial, &q).await?.0))
+}
+
+/// The runs' filter of [`ThermalQuery`] and the file's form.
+#[derive(Debug, Default, Deserialize)]
+struct ThermalCompensationQuery {
+    from: Option<String>,
+    to: Option<String>,
+    verdict: Option<VerdictStatus>,
+    max_span_c: Option<f64>,
+    #[serde(default)]
+    format: FileForm,
+}
+
+async fn get_thermal_compensation(
+    State(st): State<AppState>,
+    auth: Auth,
+    path: Result<Path<String>, PathRejection>,
+    query: Result<Query<ThermalCompensationQuery>, QueryRejection>,
+) -> Result<Response, ApiError> {
+    auth.require(roles::ENGINEER)?;
+    let serial = path?.0;
+    validate_serial(&serial).map_err(ApiError::BadRequest)?;
+    let Query(q) = query?;
+    let filter = ThermalQuery {
+        from: q.from,
+        to: q.to,
+        verdict: q.verdict,
+        max_span_c: q.max_span_c,
+    };
+    let (model, runs) = unit_thermal_model(&st, &serial, &filter).await?;
+    let provenance = Provenance {
+        unit_serial: Some(serial.clone()),
+        source: Some(format!(
+            "/api/v1/units/{serial}/thermal: {} runs at {}–{} °C",
+            runs.len(),
+            model.range_c[0],
+            model.range_c[1]
+        )),
+        model: "base-24".into(),
+        model_check_adequate: Some(model.check.adequate),
+        ..Provenance::default()
+    };
+    let file = CompensationFile::from_thermal_model(&model, provenance)
+        .map_err(|e| ApiError::Internal(format!("unit {serial}'s thermal model: {e}")))?;
+    Ok(file_response(&file, q.format))
 }
 
 /// The unit's thermal model and the runs it was fitted from (the API's

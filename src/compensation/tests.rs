@@ -182,7 +182,11 @@ fn thermal_terms_come_from_a_run_or_a_unit_model() {
     let i = crate::model::params::index_of("accel_bias_y").unwrap();
     let at_45 = back.parameters_at(45.0);
     let expect = p.si[i] + 2.5 * PARAMETERS[i].si_per_unit * 20.0;
-    assert!((at_45.si[i] - expect).abs() < 1e-15, "{} {expect}", at_45.si[i]);
+    assert!(
+        (at_45.si[i] - expect).abs() < 1e-15,
+        "{} {expect}",
+        at_45.si[i]
+    );
     assert_eq!(back.parameters_at(45.0).si[0], p.si[0]);
     // 0.02 deg/h per °C/min, in rad/s per °C/s.
     let k_si = 0.02 * crate::model::units::DEG_PER_H * 60.0;
@@ -208,7 +212,10 @@ fn thermal_terms_come_from_a_run_or_a_unit_model() {
     let model = fit_thermal_model(&runs).unwrap();
     let file = CompensationFile::from_thermal_model(&model, Provenance::default()).unwrap();
     let t = file.thermal.as_ref().unwrap();
-    assert_eq!((t.source, t.range_c), (thermal::ThermalSource::Unit, [-10.0, 60.0]));
+    assert_eq!(
+        (t.source, t.range_c),
+        (thermal::ThermalSource::Unit, [-10.0, 60.0])
+    );
     let j = crate::model::params::index_of("accel_bias_x").unwrap();
     let slope = t.linear_per_c.si()[j] / PARAMETERS[j].si_per_unit;
     assert!((slope - 2.0).abs() < 1e-9, "{slope}");

@@ -147,7 +147,11 @@ impl ThermalTerms {
     }
 
     /// The parameters at `temperature_c` from those at the reference.
-    pub fn parameters_at(&self, at_reference: &ErrorParameters, temperature_c: f64) -> ErrorParameters {
+    pub fn parameters_at(
+        &self,
+        at_reference: &ErrorParameters,
+        temperature_c: f64,
+    ) -> ErrorParameters {
         let d = temperature_c - self.reference_c;
         let linear = self.linear_per_c.si();
         let quadratic = self.quadratic_per_c2.as_ref().map(TermSet::si);
@@ -171,7 +175,10 @@ impl ThermalTerms {
                 .as_ref()
                 .map(|q| q.si().iter().all(|v| v.is_finite()))
                 .unwrap_or(true)
-            && self.gyro_bias_rad_per_s_per_c_per_s.iter().all(|v| v.is_finite())
+            && self
+                .gyro_bias_rad_per_s_per_c_per_s
+                .iter()
+                .all(|v| v.is_finite())
             && self.reference_c.is_finite()
             && self.range_c.iter().all(|v| v.is_finite());
         if !finite {

@@ -295,6 +295,21 @@ pub(super) fn parameter_table(
                 }
             }
         }
+        @if let Some(t) = &r.thermal {
+            h3 { "Temperature coefficients (in-run, " (format::sig(t.range_c[0], 3)) "–" (format::sig(t.range_c[1], 3)) " °C)" }
+            p.muted { "The parameters above are at 25 °C; each moves by its coefficient per °C, and the gyro biases by k times the rate of change of temperature." }
+            table #thermal-coefficients {
+                tr { th { "Parameter" } th.num { "Per °C" } th.num { "1σ" } th { "Unit" } }
+                @for p in PARAMETERS.iter() {
+                    @if let Some(l) = t.parameters.get(p.name).and_then(|e| e.linear) {
+                        tr { td { (p.name) } td.num { (format::sig(l.value, 4)) } td.num { (format::sig(l.sigma, 3)) } td { (p.unit) "/°C" } }
+                    }
+                }
+                @for (axis, k) in &t.gyro_bias_rate {
+                    tr { td { "gyro_bias_rate_" (axis) } td.num { (format::sig(k.value, 4)) } td.num { (format::sig(k.sigma, 3)) } td { "deg/h per °C/min" } }
+                }
+            }
+        }
     }
 }
 
