@@ -5,7 +5,7 @@
 use crate::calib::effect_model::Effect;
 use crate::calib::effect_sensitivity::EffectParameter;
 use crate::model::effects::{BiasDrift, LeverArms};
-use crate::model::Effects;
+use crate::model::{Effects, Group, PARAMETERS};
 
 /// One parameter of a candidate effect, in the effect's JSON unit.
 #[derive(Clone, Debug, PartialEq)]
@@ -68,7 +68,53 @@ fn family(effect: Effect, size: f64) -> Vec<EffectParam> {
 /// - `accel_delay`: τ (1).
 /// - `bias_drift`: 3 gyro + 3 accelerometer drift rates (6).
 /// - `gyro_scale_asymmetry`: A per gyro (3).
+///
+/// A run whose temperature moves adds `thermal` ([`library_with`]).
 pub fn library() -> Vec<Candidate> {
+    library_with(false)
+}
+
+/// The library, and with `thermal` the SPEC §3a candidate: the linear
+/// temperature coefficients of the biases, scale factors and mountings and
+/// the gyro bias against Ṫ (24), whose signature is the parameters'
+/// columns times the run's own ΔT(t), and Ṫ(t). Offered only for a run
+/// whose temperature column spans a few °C: on a run at one temperature
+/// the coefficients' columns are the parameters' own times a constant, and
+/// the fit cannot tell them from the parameters.
+pub fn library_with(thermal: bool) -> Vec<Candidate> {
+    let mut all = motion_library();
+    if thermal {
+        all.push(Candidate {
+            name: "thermal",
+            effect: "thermal",
+            params: Effect::Thermal
+                .states()
+                .into_iter()
+                .map(|s| p(s, thermal_signature(s)))
+                .collect(),
+        });
+    }
+    all
+}
+
+/// A realistic size of a thermal state (its reporting unit): a
+/// navigation-grade unit's coefficients (SPEC §3a).
+fn thermal_signature(state: EffectParameter) -> f64 {
+    match state {
+        EffectParameter::ThermalLinear(i) => match PARAMETERS[i].group {
+            Group::GyroBias => 0.001,
+            Group::GyroScale => 0.2,
+            Group::AccelBias => 2.0,
+            Group::AccelScale => 0.5,
+            Group::GyroMisalign | Group::AccelMisalign => 0.05,
+            Group::AccelQuad => 0.5,
+        },
+        _ => 0.02,
+    }
+}
+
+/// The SPEC §3 effects, which every run's motion shows.
+fn motion_library() -> Vec<Candidate> {
     // Across the axes: the six off-axis components. The full nine are not
     // all observable: moving all three sensors by one vector r is moving
     // the point they sense, whose velocity is zero at every dwell.
@@ -129,12 +175,16 @@ pub fn quantity(candidate: &Candidate, unit: &str) -> &'static str {
         ("bias_drift", "deg/h/h") => "gyro drift",
         ("bias_drift", _) => "accelerometer drift",
         ("gyro_scale_asymmetry", _) => "scale-factor asymmetry",
+        ("thermal", "deg/h/(degC/min)") => "gyro bias against the temperature rate",
+        ("thermal", _) => "temperature coefficient",
         _ => candidate.effect,
     }
 }
 
 /// The SPEC §3 effects of candidate `candidate` with parameter values `values`
-/// (JSON units), added to `into`.
+/// (JSON units), added to `into`. `thermal` adds none: a temperature
+/// dependence is not a SPEC §3 effect, and a simulation of the named
+/// explanation (the separating turn's search) leaves it out.
 pub fn add_effect(into: &mut Effects, candidate: &str, values: &[f64]) {
     match candidate {
         "accel_lever_arm" => {
@@ -231,6 +281,8 @@ pub fn separating_motion(a: &str, b: &str) -> String {
         "rotations at a second rate: the lever arm's velocity step grows with the rate squared, the delay's with the rate".into()
     } else if pair("gyro_g_sensitivity", "bias_drift") {
         "the first positions repeated at the end of the run: drift changes with time, g-sensitivity only with attitude".into()
+    } else if a == "thermal" || b == "thermal" {
+        "a hold at a second temperature, or the same turns repeated while the temperature moves: temperature coefficients follow the temperature, not the time or the motion".into()
     } else if a == "gyro_scale_asymmetry" || b == "gyro_scale_asymmetry" {
         "each axis turned both ways by the same angle: asymmetry changes sign with the direction, scale factor does not".into()
     } else if pair("accel_delay", "gyro_g_sensitivity") {

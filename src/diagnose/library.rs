@@ -3,7 +3,7 @@
 //! over some of those columns says (the effects' estimates, and the
 //! sensor it describes).
 
-use super::candidates::{self, library, Candidate};
+use super::candidates::{self, library_with, Candidate};
 use super::gap::GapFit;
 use super::report::EffectEstimate;
 use super::separate::Explanation;
@@ -18,8 +18,9 @@ pub(crate) struct Library {
 }
 
 impl Library {
-    pub fn new() -> Self {
-        let candidates = library();
+    /// The candidates, with `thermal` for a run whose temperature moves.
+    pub fn new(thermal: bool) -> Self {
+        let candidates = library_with(thermal);
         let mut offset = Vec::new();
         let mut n = 0;
         for c in &candidates {

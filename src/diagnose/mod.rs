@@ -25,6 +25,9 @@
 //!    `report`, with where each step's gap lives (`localise`) and what
 //!    the run could have seen (`detect`).
 //!
+//! A run whose temperature column spans a few °C also offers `thermal`
+//! (SPEC §3a): its columns follow the run's own ΔT(t) and Ṫ(t).
+//!
 //! No I/O: records come through `RecordSource`; `pipeline::diagnose_file`
 //! is the file-backed entry point.
 
@@ -52,6 +55,7 @@ use crate::calib::plan::PlanInput;
 use crate::calib::prescan::scan_run;
 use crate::calib::priors::prior_sigma;
 use crate::calib::sources::SimSource;
+use crate::calib::temperature::THERMAL_SPAN_C;
 use crate::calib::walk::{align_start, PassContext};
 use crate::calib::{EstimateOptions, Progress, RecordSource, RunInfo};
 use crate::model::ErrorParameters;
@@ -81,7 +85,12 @@ pub fn diagnose(
         stage: "base calibration: scanning the run".into(),
     });
     let scan = scan_run(source, run, &opts.estimate, cancel)?;
-    let ctx = PassContext::new(source, run, &opts.estimate, &scan, cancel);
+    let temperature = source.temperature()?;
+    let thermal = temperature
+        .as_ref()
+        .is_some_and(|c| c.span_c() >= THERMAL_SPAN_C);
+    let ctx =
+        PassContext::new(source, run, &opts.estimate, &scan, cancel).with_temperature(temperature);
     let base_cal = estimate_scanned(&ctx, &mut |p| {
         progress(Progress {
             fraction: 0.4 * p.fraction,
@@ -118,7 +127,7 @@ pub fn diagnose(
         Err(e) => return Err(e),
     };
 
-    let lib = Library::new();
+    let lib = Library::new(thermal);
     let cols = gap::GapColumns::of(&lib.candidates);
     stage(
         progress,
@@ -201,7 +210,12 @@ pub fn thresholds_before_data(
     Ok(report.detectable)
 }
 
-/// The candidates' names, in library order.
+/// The candidates' names, in library order (`thermal` last, offered for
+/// runs whose temperature moves).
 pub fn candidate_names() -> Vec<&'static str> {
-    Library::new().candidates.iter().map(|c| c.name).collect()
+    Library::new(true)
+        .candidates
+        .iter()
+        .map(|c| c.name)
+        .collect()
 }
