@@ -6,6 +6,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::convention::Convention;
+use super::layout::{matrix, rows};
 use super::thermal::ThermalTerms;
 use crate::calib::CalibrationResult;
 use crate::model::params::ParameterError;
@@ -108,14 +109,6 @@ pub struct CompensationFile {
     /// (the calibration's in-run states, or the unit's model across runs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal: Option<ThermalTerms>,
-}
-
-pub(super) fn rows(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
-    [0, 1, 2].map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]])
-}
-
-pub(super) fn matrix(r: &[[f64; 3]; 3]) -> Matrix3<f64> {
-    Matrix3::from_fn(|i, j| r[i][j])
 }
 
 fn inverse_rows(k: &Matrix3<f64>) -> [[f64; 3]; 3] {

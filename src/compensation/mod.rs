@@ -15,6 +15,7 @@
 pub mod apply;
 pub mod convention;
 pub mod file;
+mod layout;
 pub mod table;
 pub mod thermal;
 

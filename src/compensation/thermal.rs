@@ -10,7 +10,7 @@
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::file::{matrix, rows};
+use super::layout::{matrix, rows};
 use crate::calib::effect_sensitivity::EffectParameter;
 use crate::calib::thermal_states::RunThermal;
 use crate::model::thermal::{ThermalTruth, REFERENCE_C};
