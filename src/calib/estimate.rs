@@ -63,7 +63,7 @@ pub fn estimate(
 
 /// The options a run is calibrated with: thermal states need the run's
 /// temperature column; `thermal_auto` adds them to a run whose
-/// temperature spans [`THERMAL_SPAN_C`] or more.
+/// temperature spans [`THERMAL_SPAN_C`] or more (with the filter).
 fn with_thermal_states(
     opts: &EstimateOptions,
     temperature: Option<&TemperatureCurve>,
@@ -79,7 +79,9 @@ fn with_thermal_states(
                 opts.model
             )));
         }
-    } else if opts.thermal_auto && spanned {
+    } else if opts.thermal_auto && spanned && opts.estimator == EstimatorKind::Kf {
+        // Only the filter carries effect states; the least squares alone
+        // keeps the base model and the result proposes the states.
         opts.model = opts.model.and(Effect::Thermal);
     }
     Ok(opts)
