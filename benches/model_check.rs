@@ -5,7 +5,10 @@
 //! `cargo bench --bench model_check` (reference scheme, 600 s dwells,
 //! 20 Hz, seeds 1–10 for effects, 1–20 for clean runs);
 //! `-- --seeds N --clean N --rate HZ --dwell S --tactical`;
-//! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone.
+//! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone;
+//! `--by-hand` turns every scheme by hand (SPEC §4 flips drawn from the
+//! seed), e.g. `-- --by-hand --dwell 300 --rate 50 --effects 0` for the
+//! clean hand-turned runs of `tests/model_check.rs` over more seeds.
 
 mod common;
 #[path = "../tests/model_check_support/mod.rs"]
@@ -24,15 +27,27 @@ fn main() {
     let with_effects = flag("--effects") != Some(0.0);
     let rate = flag("--rate").unwrap_or(20.0);
     let dwell = flag("--dwell").unwrap_or(600.0);
+    let by_hand = args.switch("--by-hand");
+    // The scheme as run: `nominal` turned by hand with `--by-hand`.
+    let as_run = |nominal: &sinscal::sim::Scheme, seed: u64| {
+        if by_hand {
+            sinscal::sim::Scheme::by_hand(nominal, seed, &sinscal::sim::HandTurns::default())
+                .unwrap()
+        } else {
+            nominal.clone()
+        }
+    };
     let noise = if args.switch("--tactical") {
         tactical_grade()
     } else {
         navigation_grade()
     };
     println!(
-        "model check: ten-position-9+9 (both ways for asymmetry), {dwell} s dwells, {rate} Hz, \
+        "model check: ten-position-9+9 (both ways for asymmetry){}, {dwell} s dwells, {rate} Hz, \
          ARW {} deg/√h, VRW {} µg/√Hz",
-        noise.gyro_arw_deg_rt_h, noise.accel_vrw_ug_rt_hz
+        if by_hand { ", turned by hand" } else { "" },
+        noise.gyro_arw_deg_rt_h,
+        noise.accel_vrw_ug_rt_hz
     );
     let t0 = Instant::now();
     // Clean runs: the statistic's spread against its χ² law.
@@ -41,7 +56,7 @@ fn main() {
     let mut worst_ratio = 0.0f64;
     for seed in 1..=clean {
         let c = check(&config(
-            nine_plus_nine(dwell),
+            as_run(&nine_plus_nine(dwell), seed),
             Effects::none(),
             noise,
             rate,
@@ -80,7 +95,7 @@ fn main() {
             let mut example = String::new();
             for seed in 1..=seeds {
                 let c = check(&config(
-                    case.scheme.clone(),
+                    as_run(&case.scheme, seed),
                     case.effects,
                     noise,
                     rate,

@@ -11,8 +11,8 @@ mod table1_support;
 
 use std::sync::atomic::AtomicBool;
 
-use diagnosis_support::{by_hand, config, nine_plus_nine, strong_effects, HAND_RATE_HZ};
-use sinscal::calib::sources::SimSource;
+use diagnosis_support::{by_hand, config, nine_plus_nine, simulated, strong_effects, HAND_RATE_HZ};
+use sinscal::calib::sources::SliceSource;
 use sinscal::calib::{estimate, CalibrationResult, Effect, ErrorModel, EstimateOptions, RunInfo};
 use sinscal::model::Effects;
 use sinscal::sim::SimConfig;
@@ -31,7 +31,7 @@ fn calibrate(cfg: &SimConfig, model: ErrorModel) -> CalibrationResult {
         ..EstimateOptions::default()
     };
     let res = estimate(
-        &SimSource(cfg.clone()),
+        &SliceSource(&simulated(cfg)),
         &RunInfo {
             site: cfg.site,
             sample_rate_hz: cfg.sample_rate_hz,

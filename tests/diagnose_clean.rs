@@ -9,12 +9,14 @@ use sinscal::model::Effects;
 
 #[test]
 fn clean_runs_name_nothing() {
+    let seeds: Vec<u64> = (101..=110).collect();
+    // Shorter dwells than the effect tests: only the false-alarm rate is
+    // at stake here. The runs are shared between both cores.
+    let reps = on_both_cores(&seeds, |&seed| {
+        run(&config(nine_plus_nine(300.0), Effects::none(), seed))
+    });
     let mut z = Vec::new();
-    for seed in 101..=110 {
-        // Shorter dwells than the effect tests: only the false-alarm rate
-        // is at stake here.
-        let cfg = config(nine_plus_nine(300.0), Effects::none(), seed);
-        let rep = run(&cfg);
+    for (seed, rep) in seeds.into_iter().zip(reps) {
         assert!(rep.named.is_empty(), "seed {seed}: {}", rep.verdict);
         assert_eq!(rep.verdict, Verdict::NoSignificantEffect, "seed {seed}");
         assert!(

@@ -14,6 +14,8 @@ use sinscal::diagnose::detect::DetectionThreshold;
 use sinscal::diagnose::thresholds_before_data;
 use sinscal::diagnose::{DiagnoseReport, Verdict};
 use sinscal::model::Effects;
+use sinscal::sim::SimConfig;
+use std::sync::OnceLock;
 
 fn close(a: f64, b: f64, what: &str) {
     assert!(
@@ -138,13 +140,23 @@ fn at_threshold(t: &DetectionThreshold, factor: f64) -> Effects {
     effects
 }
 
+/// The clean run of seed 121 and its diagnosis, made once for the two
+/// tests that read it.
+fn clean_run() -> &'static (SimConfig, DiagnoseReport) {
+    static CLEAN: OnceLock<(SimConfig, DiagnoseReport)> = OnceLock::new();
+    CLEAN.get_or_init(|| {
+        let cfg = config(nine_plus_nine(300.0), Effects::none(), 121);
+        let rep = run(&cfg);
+        (cfg, rep)
+    })
+}
+
 #[test]
 fn an_effect_at_twice_the_reported_threshold_is_named() {
-    let seed = 121;
-    let clean = config(nine_plus_nine(300.0), Effects::none(), seed);
-    let rep = run(&clean);
+    let (clean, rep) = clean_run();
+    let seed = clean.seed;
     assert_eq!(rep.verdict, Verdict::NoSignificantEffect);
-    assert_sane(&rep);
+    assert_sane(rep);
     assert!(
         rep.summary()
             .contains("no significant effect; this run would have named a "),
@@ -174,11 +186,13 @@ fn an_effect_at_twice_the_reported_threshold_is_named() {
             assert!((norm - 1.0).abs() < 1e-9, "{t:?}");
         }
     }
-    // The same noise with each quantity at twice its threshold.
+    // The same noise with each quantity at twice its threshold, the runs
+    // shared between both cores.
+    let named = on_both_cores(&rep.detectable, |t| {
+        run_quiet(&config(nine_plus_nine(300.0), at_threshold(t, 2.0), seed))
+    });
     let mut missed = Vec::new();
-    for t in &rep.detectable {
-        let cfg = config(nine_plus_nine(300.0), at_threshold(t, 2.0), seed);
-        let with = run_quiet(&cfg);
+    for (t, with) in rep.detectable.iter().zip(named) {
         eprintln!(
             "{} {} at 2x {:.4} {}: named {:?} ({})",
             t.candidate, t.quantity, t.size, t.unit, with.named, with.verdict
@@ -192,8 +206,7 @@ fn an_effect_at_twice_the_reported_threshold_is_named() {
 
 #[test]
 fn thresholds_before_data_agree_with_what_a_run_reports() {
-    let clean = config(nine_plus_nine(300.0), Effects::none(), 121);
-    let rep = run_quiet(&clean);
+    let (clean, rep) = clean_run();
     let input = PlanInput {
         scheme: clean.scheme.clone(),
         site: clean.site,

@@ -138,7 +138,8 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     let token = token.unwrap();
     let http = reqwest::Client::new();
     let dir = tempfile::tempdir().unwrap();
-    let cfg = sim_config(5, ErrorParameters::paper(), "ten-position-9+9", 600.0);
+    // 300 s dwells at 100 Hz: a job of seconds, killed as soon as it runs.
+    let cfg = sim_config(5, ErrorParameters::paper(), "ten-position-9+9", 300.0);
     let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0042", None);
     let r: Value = upload(
         &http,
@@ -228,6 +229,11 @@ struct Acked {
 async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
     const KILLS: usize = 20;
     const CLIENTS: usize = 2;
+    // Each client's pause after an acknowledged upload: uploads still come
+    // faster than two workers calibrate them (a job runs at nearly every
+    // kill), but the backlog the final start drains stays short (150 ms
+    // left twice the uploads and half a minute of draining).
+    const PACE_MS: u64 = 300;
     let data = tempfile::tempdir().unwrap();
     let logs = tempfile::tempdir().unwrap();
     let log = logs.path().join("server.log");
@@ -281,7 +287,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
                     match upload(&http, &base, &token, "RLG-0042", &meta, body).await {
                         Ok(r) if r.status() == 202 => {
                             // Paced, so the final drain stays short.
-                            tokio::time::sleep(Duration::from_millis(150)).await;
+                            tokio::time::sleep(Duration::from_millis(PACE_MS)).await;
                             let v: Value = r.json().await.unwrap_or_default();
                             if v["run_id"].is_string() {
                                 acked.lock().unwrap().push(Acked {

@@ -6,14 +6,15 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use sinscal::calib::sources::SimSource;
+use sinscal::calib::sources::SliceSource;
 use sinscal::calib::RunInfo;
 use sinscal::diagnose::candidates::values_in;
 use sinscal::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
 use sinscal::model::params::paper_accuracy;
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::sim::{scheme, HandTurns, Noise, Scheme, SimConfig};
+use sinscal::sim::{scheme, simulate, HandTurns, Noise, Scheme, SimConfig};
+use sinscal::Record;
 
 /// The test runs: the paper's 9+9 scheme with its 600 s dwells at 20 Hz
 /// (the noise densities, not the rate, set the information, so 20 Hz
@@ -128,6 +129,18 @@ pub fn both_ways(dwell_s: f64) -> Scheme {
     s
 }
 
+/// `f` over `items` on both cores (the first half here, the second half
+/// on a second thread), the results in `items`' order.
+pub fn on_both_cores<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> Vec<R> {
+    let (a, b) = items.split_at(items.len().div_ceil(2));
+    std::thread::scope(|s| {
+        let other = s.spawn(|| b.iter().map(&f).collect::<Vec<R>>());
+        let mut out: Vec<R> = a.iter().map(&f).collect();
+        out.extend(other.join().unwrap());
+        out
+    })
+}
+
 pub fn run(cfg: &SimConfig) -> DiagnoseReport {
     let t = Instant::now();
     let rep = run_quiet(cfg);
@@ -141,10 +154,17 @@ pub fn run(cfg: &SimConfig) -> DiagnoseReport {
     rep
 }
 
+/// `cfg`'s records, simulated once and held in memory: the estimator's
+/// passes read them there instead of simulating the run afresh for each
+/// (`SimSource`), and get the same records.
+pub fn simulated(cfg: &SimConfig) -> Vec<Record> {
+    simulate(cfg).expect("a valid simulation").collect()
+}
+
 /// Diagnoses a simulated run through the library entry point.
 pub fn run_quiet(cfg: &SimConfig) -> DiagnoseReport {
     diagnose(
-        &SimSource(cfg.clone()),
+        &SliceSource(&simulated(cfg)),
         &RunInfo {
             site: cfg.site,
             sample_rate_hz: cfg.sample_rate_hz,
