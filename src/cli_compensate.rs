@@ -101,9 +101,15 @@ pub fn run_export(a: &ExportArgs) -> anyhow::Result<()> {
         ..Provenance::default()
     };
     let file = load(&a.result, provenance)?;
-    let csv = a.out.extension().is_some_and(|e| e == "csv");
+    write_file(&file, &a.out)
+}
+
+/// Writes a compensation file, as CSV when `out`'s name ends in `.csv`,
+/// else as JSON (`export`'s rule, and `thermal --compensation`'s).
+pub fn write_file(file: &CompensationFile, out: &Path) -> anyhow::Result<()> {
+    let csv = out.extension().is_some_and(|e| e == "csv");
     let text = if csv { file.to_csv() } else { file.to_json() };
-    std::fs::write(&a.out, text).with_context(|| format!("writing {}", a.out.display()))?;
-    eprintln!("wrote {}", a.out.display());
+    std::fs::write(out, text).with_context(|| format!("writing {}", out.display()))?;
+    eprintln!("wrote {}", out.display());
     Ok(())
 }

@@ -140,10 +140,7 @@ pub fn run_thermal(a: &ThermalArgs) -> anyhow::Result<()> {
             ..Provenance::default()
         };
         let file = CompensationFile::from_thermal_model(&model, provenance)?;
-        let csv = path.extension().is_some_and(|e| e == "csv");
-        let text = if csv { file.to_csv() } else { file.to_json() };
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        crate::cli_compensate::write_file(&file, path)?;
     }
     Ok(())
 }

@@ -6,17 +6,12 @@
 
 mod table1_support;
 
-use std::sync::atomic::AtomicBool;
-
 use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::sources::SliceSource;
-use sinscal::calib::{
-    estimate, CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, RunInfo,
-};
+use sinscal::calib::sources::calibrate_in_memory;
+use sinscal::calib::{CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity};
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
-use sinscal::Record;
+use sinscal::sim::{Noise, Scheme, SimConfig};
 use table1_support::assert_within_table1;
 
 fn config(
@@ -45,19 +40,7 @@ fn config(
 /// memory: the same records `calibrate_simulated` would simulate afresh
 /// for each of the estimator's passes.
 fn calibrate(cfg: &SimConfig, opts: &EstimateOptions) -> CalibrationResult {
-    let records: Vec<Record> = simulate(cfg).unwrap().collect();
-    let run = RunInfo {
-        site: cfg.site,
-        sample_rate_hz: cfg.sample_rate_hz,
-    };
-    estimate(
-        &SliceSource(&records),
-        &run,
-        opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap()
+    calibrate_in_memory(cfg, opts).unwrap()
 }
 
 /// err/σ of every parameter, canonical order.

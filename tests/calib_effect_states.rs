@@ -9,11 +9,9 @@
 mod diagnosis_support;
 mod table1_support;
 
-use std::sync::atomic::AtomicBool;
-
-use diagnosis_support::{by_hand, config, nine_plus_nine, simulated, strong_effects, HAND_RATE_HZ};
-use sinscal::calib::sources::SliceSource;
-use sinscal::calib::{estimate, CalibrationResult, Effect, ErrorModel, EstimateOptions, RunInfo};
+use diagnosis_support::{by_hand, config, nine_plus_nine, strong_effects, HAND_RATE_HZ};
+use sinscal::calib::sources::calibrate_in_memory;
+use sinscal::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions};
 use sinscal::model::Effects;
 use sinscal::sim::SimConfig;
 use table1_support::assert_within_table1;
@@ -30,17 +28,7 @@ fn calibrate(cfg: &SimConfig, model: ErrorModel) -> CalibrationResult {
         model,
         ..EstimateOptions::default()
     };
-    let res = estimate(
-        &SliceSource(&simulated(cfg)),
-        &RunInfo {
-            site: cfg.site,
-            sample_rate_hz: cfg.sample_rate_hz,
-        },
-        &opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let res = calibrate_in_memory(cfg, &opts).unwrap();
     eprintln!("{}", res.table());
     res
 }

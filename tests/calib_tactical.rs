@@ -9,12 +9,12 @@
 use std::sync::atomic::AtomicBool;
 
 use rand::SeedableRng;
-use sinscal::calib::sources::{SimSource, SliceSource};
-use sinscal::calib::{estimate, EstimateOptions, RunInfo};
+use sinscal::calib::sources::calibrate_in_memory;
+use sinscal::calib::sources::SimSource;
+use sinscal::calib::{EstimateOptions, RunInfo};
 use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
-use sinscal::Record;
+use sinscal::sim::{Noise, Scheme, SimConfig};
 
 /// Not a whole number of pre-scan blocks or filter windows.
 const DWELL_S: f64 = 300.03;
@@ -57,19 +57,7 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
         };
         // Simulated once into memory, not afresh for every pass: the
         // same records.
-        let records: Vec<Record> = simulate(&cfg).unwrap().collect();
-        let run = RunInfo {
-            site,
-            sample_rate_hz: cfg.sample_rate_hz,
-        };
-        let res = estimate(
-            &SliceSource(&records),
-            &run,
-            &opts,
-            &mut |_| {},
-            &AtomicBool::new(false),
-        )
-        .unwrap();
+        let res = calibrate_in_memory(&cfg, &opts).unwrap();
         PARAMETERS
             .iter()
             .enumerate()

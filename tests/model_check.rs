@@ -14,40 +14,27 @@
 
 mod model_check_support;
 
-use std::sync::atomic::AtomicBool;
 use std::thread;
 
 use model_check_support::*;
-use sinscal::calib::sources::SliceSource;
-use sinscal::calib::{estimate, EstimateOptions, ModelCheck, RunInfo};
+use sinscal::calib::sources::calibrate_in_memory;
+use sinscal::calib::{EstimateOptions, ModelCheck};
 use sinscal::model::Effects;
-use sinscal::sim::{simulate, SimConfig};
-use sinscal::Record;
+use sinscal::sim::SimConfig;
 
 /// The model check of `cfg`'s run, calibrated as `model_check_support`'s
 /// `check` does (without the cross-check), from its records simulated
 /// once and held in memory rather than afresh for every pass (the same
 /// records).
 fn check(cfg: &SimConfig) -> ModelCheck {
-    let records: Vec<Record> = simulate(cfg).unwrap().collect();
     let opts = EstimateOptions {
         cross_check: false,
         ..EstimateOptions::default()
     };
-    let run = RunInfo {
-        site: cfg.site,
-        sample_rate_hz: cfg.sample_rate_hz,
-    };
-    estimate(
-        &SliceSource(&records),
-        &run,
-        &opts,
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap()
-    .model_check
-    .expect("the filter makes a model check")
+    calibrate_in_memory(cfg, &opts)
+        .unwrap()
+        .model_check
+        .expect("the filter makes a model check")
 }
 
 /// Checks of `cfgs` on both cores.
