@@ -71,10 +71,17 @@ pub struct ServeArgs {
     /// Folder of the database (sinscal.db) and the run files (runs/).
     #[arg(long, env = "SINSCAL_DATA_DIR", default_value = defaults::DATA_DIR)]
     pub data_dir: PathBuf,
+    /// The database: `sqlite:PATH` (default: `sinscal.db` in the data
+    /// folder) or `postgres://USER:PASSWORD@HOST/DB`, which any number of
+    /// servers and workers on other machines can share.
+    #[arg(long, env = "SINSCAL_DATABASE_URL")]
+    pub database_url: Option<String>,
     /// Address to listen on; port 0 picks a free port (printed at start).
     #[arg(long, env = "SINSCAL_BIND", default_value = defaults::BIND)]
     pub bind: String,
-    /// Calibration workers; default one per core.
+    /// Calibration workers in this process; default one per core, 0 for
+    /// a server that only answers the API (workers run elsewhere:
+    /// `sinscal worker`).
     #[arg(long, env = "SINSCAL_WORKERS")]
     pub workers: Option<usize>,
     /// Largest upload body, bytes (default 2 GiB).
@@ -167,6 +174,8 @@ pub struct BodyPace {
 #[derive(Clone, Debug)]
 pub struct Config {
     pub data_dir: PathBuf,
+    /// `--database-url` as given; `None`: SQLite in the data folder.
+    pub database_url: Option<String>,
     pub bind: String,
     pub workers: usize,
     pub max_body_bytes: u64,
@@ -240,6 +249,7 @@ impl Config {
     pub fn new(data_dir: impl Into<PathBuf>) -> Config {
         Config {
             data_dir: data_dir.into(),
+            database_url: None,
             bind: defaults::BIND.into(),
             workers: std::thread::available_parallelism()
                 .map(|n| n.get())
@@ -277,6 +287,7 @@ impl Config {
     pub fn from_args(a: &ServeArgs) -> Result<Config, ConfigError> {
         let mut c = Config::new(&a.data_dir);
         c.bind = a.bind.clone();
+        c.database_url = a.database_url.clone();
         if let Some(w) = a.workers {
             c.workers = w;
         }

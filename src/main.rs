@@ -67,6 +67,10 @@ enum Command {
     Thermal(cli_thermal::ThermalArgs),
     /// Run the calibration server (HTTP API under /api/v1).
     Serve(sinscal::config::ServeArgs),
+    /// Run calibration workers only, on the database the servers share
+    /// (`--database-url postgres://…`); `--bind` serves /healthz, /readyz
+    /// and /metrics.
+    Worker(sinscal::config::ServeArgs),
     /// Manage the server's bearer tokens.
     #[command(subcommand)]
     Token(TokenCommand),
@@ -82,6 +86,10 @@ enum TokenCommand {
         role: sinscal::store::Role,
         #[arg(long, env = "SINSCAL_DATA_DIR", default_value = sinscal::config::defaults::DATA_DIR)]
         data_dir: PathBuf,
+        /// The servers' database (as `serve --database-url`); default:
+        /// SQLite in the data folder.
+        #[arg(long, env = "SINSCAL_DATABASE_URL")]
+        database_url: Option<String>,
         /// A note naming the token's holder.
         #[arg(long)]
         label: Option<String>,
@@ -543,12 +551,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Export(a) => cli_compensate::run_export(&a),
         Command::Thermal(a) => cli_thermal::run_thermal(&a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
+        Command::Worker(a) => Ok(sinscal::server::worker(&a)?),
         Command::Token(TokenCommand::Create {
             role,
             data_dir,
+            database_url,
             label,
         }) => {
-            let token = sinscal::server::create_token(&data_dir, role, label.as_deref())?;
+            let token = sinscal::server::create_token(
+                &data_dir,
+                database_url.as_deref(),
+                role,
+                label.as_deref(),
+            )?;
             println!("{token}");
             Ok(())
         }

@@ -73,10 +73,7 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .layer(axum::middleware::from_fn(close_after_refused_upload));
     // The operations endpoints, under the API and at the root too, where
     // orchestrators' probes and Prometheus look for them by default.
-    let operations = Router::new()
-        .route("/healthz", get(healthz))
-        .route("/readyz", get(readyz))
-        .route("/metrics", get(metrics));
+    let operations = operations();
     let api = Router::new()
         .merge(operations.clone())
         .route("/openapi.yaml", get(openapi))
@@ -97,6 +94,28 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .merge(pages)
         .fallback(|| async { ApiError::NotFound("no such endpoint".into()) })
         .layer(axum::middleware::from_fn(bound_request_head))
+        .layer(axum::middleware::map_response(ensure_problem))
+        .layer(tower::limit::GlobalConcurrencyLimitLayer::new(
+            state.config.max_concurrent_requests,
+        ))
+        .layer(TraceLayer::new_for_http())
+        .with_state(state)
+}
+
+fn operations() -> Router<AppState> {
+    Router::new()
+        .route("/healthz", get(healthz))
+        .route("/readyz", get(readyz))
+        .route("/metrics", get(metrics))
+}
+
+/// A worker process's router: the operations endpoints alone, at the root
+/// and under `/api/v1`, with the same limits as the whole router.
+pub fn operations_router(state: AppState) -> Router {
+    Router::new()
+        .nest("/api/v1", operations())
+        .merge(operations())
+        .fallback(|| async { ApiError::NotFound("a worker serves only /healthz, /readyz and /metrics".into()) })
         .layer(axum::middleware::map_response(ensure_problem))
         .layer(tower::limit::GlobalConcurrencyLimitLayer::new(
             state.config.max_concurrent_requests,

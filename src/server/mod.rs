@@ -19,7 +19,7 @@ use crate::config::{database_path, Config, ConfigError, ServeArgs};
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
 use crate::metrics::Metrics;
 use crate::runfiles::{RunFiles, Swept};
-use crate::store::{OnInadequate, Role, Store, StoreError};
+use crate::store::{DatabaseUrl, OnInadequate, Role, Store, StoreError};
 
 /// Errors starting or running the server.
 #[derive(Debug, thiserror::Error)]
@@ -43,12 +43,23 @@ fn io_err(what: impl Into<String>) -> impl FnOnce(std::io::Error) -> ServerError
     move |source| ServerError::Io { what, source }
 }
 
+/// The database `--database-url` names, else SQLite in the data folder.
+fn database_url(database_url: Option<&str>, data_dir: &Path) -> Result<DatabaseUrl, ServerError> {
+    match database_url {
+        Some(url) => DatabaseUrl::parse(url)
+            .map_err(|e| ConfigError::Invalid(format!("--database-url: {e}")).into()),
+        None => Ok(DatabaseUrl::Sqlite(database_path(data_dir))),
+    }
+}
+
 /// Creates the data folders, opens the database (applying migrations).
-async fn open_store(data_dir: &Path, readers: u32) -> Result<Store, ServerError> {
+async fn open_store(config: &Config, readers: u32) -> Result<Store, ServerError> {
+    let data_dir = &config.data_dir;
     RunFiles::new(data_dir)
         .create_dirs()
         .map_err(io_err(format!("creating {}", data_dir.display())))?;
-    Ok(Store::open(&database_path(data_dir), readers).await?)
+    let url = database_url(config.database_url.as_deref(), data_dir)?;
+    Ok(Store::connect(&url, readers).await?)
 }
 
 /// Removes what a crash can leave behind (see [`RunFiles::sweep`]).
@@ -59,8 +70,19 @@ async fn sweep_orphans(store: &Store, data_dir: &Path) -> Result<Swept, ServerEr
         .map_err(io_err("sweeping the run files"))
 }
 
+/// What a process serves over HTTP.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Serves {
+    /// The API, the pages and the operations endpoints (`sinscal serve`).
+    Api,
+    /// Only `/healthz`, `/readyz` and `/metrics` (`sinscal worker`): a
+    /// process that runs jobs and answers no client.
+    Operations,
+}
+
 /// A built, bound server, not yet running.
 pub struct Application {
+    serves: Serves,
     listener: TcpListener,
     addr: SocketAddr,
     state: AppState,
@@ -72,15 +94,25 @@ impl Application {
     /// Opens the data folder and database, sweeps crash leftovers, creates
     /// the first admin token if there is no token, and binds the listener.
     pub async fn build(config: Config) -> Result<Application, ServerError> {
+        Application::build_serving(config, Serves::Api).await
+    }
+
+    /// [`Application::build`] for a process that serves `serves`. Only an
+    /// API process creates the first admin token (it is the one that
+    /// prints it to an operator).
+    pub async fn build_serving(config: Config, serves: Serves) -> Result<Application, ServerError> {
         let readers = (config.max_concurrent_requests.min(16)) as u32;
-        let store = open_store(&config.data_dir, readers).await?;
+        let store = open_store(&config, readers).await?;
         let Swept { partial, orphans } = sweep_orphans(&store, &config.data_dir).await?;
         if partial + orphans > 0 {
             tracing::info!(partial, orphans, "removed files left by an earlier crash");
         }
         let (token, hash) = auth::new_token();
         let id = uuid::Uuid::new_v4().to_string();
-        let first_admin_token = store.insert_first_token(&id, &hash).await?.then_some(token);
+        let first_admin_token = match serves {
+            Serves::Api => store.insert_first_token(&id, &hash).await?.then_some(token),
+            Serves::Operations => None,
+        };
         let listener = TcpListener::bind(&config.bind)
             .await
             .map_err(io_err(format!("binding {}", config.bind)))?;
@@ -115,6 +147,7 @@ impl Application {
             stopping: Arc::new(AtomicBool::new(false)),
         };
         Ok(Application {
+            serves,
             listener,
             addr,
             state,
@@ -160,11 +193,15 @@ impl Application {
             self.state.wake.clone(),
             poll,
         );
+        let hints = listen_for_jobs(&self.state.store, self.state.wake.clone()).await;
         let state = self.state.clone();
-        let app = api::router(
-            self.state.clone(),
-            crate::web::router(self.state.config.max_body_bytes),
-        );
+        let app = match self.serves {
+            Serves::Api => api::router(
+                self.state.clone(),
+                crate::web::router(self.state.config.max_body_bytes),
+            ),
+            Serves::Operations => api::operations_router(self.state.clone()),
+        };
         let (stopped_tx, stopped_rx) = tokio::sync::oneshot::channel::<()>();
         let stop_signal = async move {
             shutdown.await;
@@ -177,9 +214,38 @@ impl Application {
             .await;
         let _ = stopped_rx.await;
         pool.shutdown(config.shutdown_grace).await;
+        if let Some(h) = hints {
+            h.abort();
+        }
         self.state.store.close().await;
         served.map_err(io_err("serving"))
     }
+}
+
+/// On PostgreSQL, wakes this process's idle workers when any process
+/// queues a job (`LISTEN`). Only a hint: a lost notification (the
+/// listener reconnecting) costs at most one poll period, so errors are
+/// logged and the listener retried, never fatal.
+async fn listen_for_jobs(store: &Store, wake: Arc<Notify>) -> Option<tokio::task::JoinHandle<()>> {
+    let mut hints = match store.job_hints().await {
+        Ok(Some(h)) => h,
+        Ok(None) => return None,
+        Err(e) => {
+            tracing::warn!(error = %e, "no job notifications: workers poll only");
+            return None;
+        }
+    };
+    Some(tokio::spawn(async move {
+        loop {
+            match hints.next().await {
+                Ok(()) => wake.notify_waiters(),
+                Err(e) => {
+                    tracing::warn!(error = %e, "job notifications interrupted; reconnecting");
+                    tokio::time::sleep(Duration::from_secs(1)).await;
+                }
+            }
+        }
+    }))
 }
 
 /// Resolves on SIGTERM or Ctrl-C.
@@ -211,9 +277,7 @@ fn runtime() -> Result<tokio::runtime::Runtime, ServerError> {
         .map_err(io_err("starting the async runtime"))
 }
 
-/// `sinscal serve`: prints the listening address (and a first admin token)
-/// on stdout, logs on stderr, runs until SIGTERM/Ctrl-C.
-pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
+fn init_logging() {
     let _ = tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| {
@@ -223,16 +287,41 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
         .with_writer(std::io::stderr)
         .with_ansi(std::io::IsTerminal::is_terminal(&std::io::stderr()))
         .try_init();
+}
+
+/// `sinscal serve`: prints the listening address (and a first admin token)
+/// on stdout, logs on stderr, runs until SIGTERM/Ctrl-C.
+pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
+    run_process(args, Serves::Api)
+}
+
+/// `sinscal worker`: the workers alone, claiming jobs from the shared
+/// database; `--bind` serves only the operations endpoints. Prints the
+/// address, runs until SIGTERM/Ctrl-C, then hands running jobs back as
+/// `serve` does.
+pub fn worker(args: &ServeArgs) -> Result<(), ServerError> {
+    run_process(args, Serves::Operations)
+}
+
+fn run_process(args: &ServeArgs, serves: Serves) -> Result<(), ServerError> {
+    init_logging();
     let config = Config::from_args(args)?;
     runtime()?.block_on(async move {
         let workers = config.workers;
         let data_dir = config.data_dir.clone();
-        let app = Application::build(config).await?;
+        let app = Application::build_serving(config, serves).await?;
         if let Some(token) = app.first_admin_token() {
             println!("admin token (shown once, store it now): {token}");
         }
-        println!("sinscal listening on http://{}", app.addr());
-        tracing::info!(addr = %app.addr(), workers, data_dir = %data_dir.display(), "server started");
+        let what = match serves {
+            Serves::Api => "sinscal",
+            Serves::Operations => "sinscal worker",
+        };
+        println!("{what} listening on http://{}", app.addr());
+        tracing::info!(
+            addr = %app.addr(), workers, data_dir = %data_dir.display(),
+            database = %app.store().url().redacted(), ?serves, "process started"
+        );
         app.run_until_stopped(termination_signal()).await
     })
 }
@@ -240,17 +329,20 @@ pub fn serve(args: &ServeArgs) -> Result<(), ServerError> {
 /// `sinscal token create`: a new token of `role`, returned for printing.
 pub fn create_token(
     data_dir: &Path,
+    database_url_flag: Option<&str>,
     role: Role,
     label: Option<&str>,
 ) -> Result<String, ServerError> {
+    let url = database_url(database_url_flag, data_dir)?;
     // A mistyped --data-dir must not create a new, empty database whose
     // token works on no server.
-    let db = database_path(data_dir);
-    if !db.is_file() {
-        return Err(ServerError::NoDatabase(db.display().to_string()));
+    if let DatabaseUrl::Sqlite(db) = &url {
+        if !db.is_file() {
+            return Err(ServerError::NoDatabase(db.display().to_string()));
+        }
     }
     runtime()?.block_on(async move {
-        let store = open_store(data_dir, 1).await?;
+        let store = Store::connect(&url, 1).await?;
         let (token, hash) = auth::new_token();
         store
             .insert_token(&uuid::Uuid::new_v4().to_string(), &hash, role, label)

@@ -10,6 +10,15 @@ pub enum StoreError {
     StorageFull(String),
     #[error("database error: {0}")]
     Db(sqlx::Error),
+    /// The database could not be opened: unreachable server, refused
+    /// login, missing database or file. `target` is the URL without its
+    /// password.
+    #[error("cannot open the database {target}: {source}")]
+    Connect {
+        target: String,
+        #[source]
+        source: sqlx::Error,
+    },
     #[error("database migration failed: {0}")]
     Migrate(#[from] sqlx::migrate::MigrateError),
     #[error("stored JSON is malformed: {0}")]
@@ -21,6 +30,8 @@ pub enum StoreError {
 
 /// SQLite's primary result code for "database or disk is full".
 const SQLITE_FULL: i64 = 13;
+/// PostgreSQL's SQLSTATE for "disk full".
+const POSTGRES_DISK_FULL: &str = "53100";
 
 /// Whether an I/O error means the disk or the quota is full.
 pub fn is_storage_full_io(e: &std::io::Error) -> bool {
@@ -35,11 +46,12 @@ const EDQUOT: i32 = 122;
 impl From<sqlx::Error> for StoreError {
     fn from(e: sqlx::Error) -> Self {
         let full = match &e {
-            sqlx::Error::Database(db) => db
-                .code()
-                .and_then(|c| c.parse::<i64>().ok())
-                // Extended result codes keep the primary code in the low byte.
-                .is_some_and(|c| c & 0xff == SQLITE_FULL),
+            sqlx::Error::Database(db) => db.code().is_some_and(|c| {
+                // SQLite's codes are numbers (extended result codes keep the
+                // primary code in the low byte); PostgreSQL's are SQLSTATEs.
+                c == POSTGRES_DISK_FULL
+                    || (c.len() < 5 && c.parse::<i64>().is_ok_and(|n| n & 0xff == SQLITE_FULL))
+            }),
             sqlx::Error::Io(io) => is_storage_full_io(io),
             _ => false,
         };

@@ -6,8 +6,9 @@ use std::collections::BTreeMap;
 use sqlx::FromRow;
 
 use super::db::{now_ms, Store};
+use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
-use super::kinds::{JobKind, JobState};
+use super::kinds::{Flag, JobKind, JobState};
 use super::verdicts::refresh_unit;
 
 #[derive(Clone, Debug, FromRow)]
@@ -23,6 +24,7 @@ pub struct JobRow {
     pub heartbeat_at: Option<i64>,
     pub progress: f64,
     pub stage: Option<String>,
+    #[sqlx(try_from = "Flag")]
     pub cancel_requested: bool,
     pub error: Option<String>,
     pub created_at: i64,
@@ -57,7 +59,7 @@ pub(super) fn by_state_name(rows: Vec<StateCount>) -> BTreeMap<String, i64> {
 }
 
 /// Jobs waiting for a worker, on either pool or inside a transaction.
-pub(super) async fn count_queued<'e>(e: impl sqlx::SqliteExecutor<'e>) -> Result<i64, StoreError> {
+pub(super) async fn count_queued<'e>(e: impl sqlx::Executor<'e, Database = sqlx::Any>) -> Result<i64, StoreError> {
     Ok(
         sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
             .fetch_one(e)
@@ -71,7 +73,7 @@ impl Store {
     }
 
     pub async fn get_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
-        Ok(sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+        Ok(sqlx::query_as("SELECT * FROM jobs WHERE id = $1")
             .bind(id)
             .fetch_optional(&self.read)
             .await?)
@@ -93,7 +95,7 @@ impl Store {
     /// A run's most recent diagnose job, if any.
     pub async fn latest_diagnose_job(&self, run_id: &str) -> Result<Option<JobRow>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+            "SELECT * FROM jobs WHERE run_id = $1 AND kind = 'diagnose'
              ORDER BY created_at DESC, id DESC LIMIT 1",
         )
         .bind(run_id)
@@ -107,18 +109,18 @@ impl Store {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
         sqlx::query(
-            "UPDATE jobs SET state = 'cancelled', finished_at = ?, cancel_requested = 1
-             WHERE id = ? AND state = 'queued'",
+            "UPDATE jobs SET state = 'cancelled', finished_at = $1, cancel_requested = TRUE
+             WHERE id = $2 AND state = 'queued'",
         )
         .bind(now)
         .bind(id)
         .execute(&mut *tx)
         .await?;
-        sqlx::query("UPDATE jobs SET cancel_requested = 1 WHERE id = ? AND state = 'running'")
+        sqlx::query("UPDATE jobs SET cancel_requested = TRUE WHERE id = $1 AND state = 'running'")
             .bind(id)
             .execute(&mut *tx)
             .await?;
-        let job = sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+        let job = sqlx::query_as("SELECT * FROM jobs WHERE id = $1")
             .bind(id)
             .fetch_optional(&mut *tx)
             .await?;
@@ -138,7 +140,8 @@ impl Store {
     ) -> Result<DiagnoseQueued, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
-        let exists: Option<i64> = sqlx::query_scalar("SELECT 1 FROM runs WHERE id = ?")
+        lock_key(self.backend, &mut tx, &run_key(run_id)).await?;
+        let exists: Option<i64> = sqlx::query_scalar("SELECT 1 FROM runs WHERE id = $1")
             .bind(run_id)
             .fetch_optional(&mut *tx)
             .await?;
@@ -146,7 +149,7 @@ impl Store {
             return Ok(DiagnoseQueued::NoRun);
         }
         let active: Option<JobRow> = sqlx::query_as(
-            "SELECT * FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+            "SELECT * FROM jobs WHERE run_id = $1 AND kind = 'diagnose'
                 AND state IN ('queued', 'running')",
         )
         .bind(run_id)
@@ -160,7 +163,7 @@ impl Store {
         }
         let job = sqlx::query_as(
             "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
-             VALUES (?, ?, 'diagnose', 'queued', ?, ?, ?)
+             VALUES ($1, $2, 'diagnose', 'queued', $3, $4, $5)
              RETURNING *",
         )
         .bind(job_id)
@@ -170,6 +173,7 @@ impl Store {
         .bind(now)
         .fetch_one(&mut *tx)
         .await?;
+        hint_job_queued(self.backend, &mut tx).await?;
         tx.commit().await?;
         Ok(DiagnoseQueued::Created(job))
     }
@@ -201,8 +205,9 @@ impl Store {
     ) -> Result<CalibrationRequeued, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
+        lock_key(self.backend, &mut tx, &run_key(run_id)).await?;
         let job: Option<JobRow> =
-            sqlx::query_as("SELECT * FROM jobs WHERE run_id = ? AND kind = 'calibrate'")
+            sqlx::query_as("SELECT * FROM jobs WHERE run_id = $1 AND kind = 'calibrate'")
                 .bind(run_id)
                 .fetch_optional(&mut *tx)
                 .await?;
@@ -216,22 +221,23 @@ impl Store {
             return Ok(CalibrationRequeued::QueueFull);
         }
         let (serial, run_time): (String, i64) =
-            sqlx::query_as("SELECT unit_serial, run_time FROM runs WHERE id = ?")
+            sqlx::query_as("SELECT unit_serial, run_time FROM runs WHERE id = $1")
                 .bind(run_id)
                 .fetch_one(&mut *tx)
                 .await?;
+        lock_key(self.backend, &mut tx, &unit_key(&serial)).await?;
         for sql in [
-            "DELETE FROM result_documents WHERE run_id = ?",
-            "DELETE FROM results WHERE run_id = ?",
+            "DELETE FROM result_documents WHERE run_id = $1",
+            "DELETE FROM results WHERE run_id = $1",
         ] {
             sqlx::query(sql).bind(run_id).execute(&mut *tx).await?;
         }
         let job = sqlx::query_as(
-            "UPDATE jobs SET state = 'queued', max_attempts = attempts + ?, lease_owner = NULL,
-                 lease_expires_at = NULL, heartbeat_at = NULL, run_after = ?, progress = 0,
-                 stage = NULL, cancel_requested = 0, error = NULL, started_at = NULL,
+            "UPDATE jobs SET state = 'queued', max_attempts = attempts + $1, lease_owner = NULL,
+                 lease_expires_at = NULL, heartbeat_at = NULL, run_after = $2, progress = 0,
+                 stage = NULL, cancel_requested = FALSE, error = NULL, started_at = NULL,
                  finished_at = NULL
-             WHERE id = ? RETURNING *",
+             WHERE id = $3 RETURNING *",
         )
         .bind(max_attempts)
         .bind(now)
@@ -239,6 +245,7 @@ impl Store {
         .fetch_one(&mut *tx)
         .await?;
         refresh_unit(&mut tx, &serial, Some((run_time, run_id)), now).await?;
+        hint_job_queued(self.backend, &mut tx).await?;
         tx.commit().await?;
         Ok(CalibrationRequeued::Queued(job))
     }
@@ -251,33 +258,33 @@ mod tests {
     /// A job `id` of its own run (so the one-job-per-run indexes stay out
     /// of it) with this kind and state, read back.
     async fn insert_job<'a, K, S>(
-        conn: &mut sqlx::SqliteConnection,
+        conn: &mut sqlx::AnyConnection,
         id: &'a str,
         kind: K,
         state: S,
     ) -> Result<JobRow, sqlx::Error>
     where
-        K: sqlx::Encode<'a, sqlx::Sqlite> + sqlx::Type<sqlx::Sqlite> + Send + 'a,
-        S: sqlx::Encode<'a, sqlx::Sqlite> + sqlx::Type<sqlx::Sqlite> + Send + 'a,
+        K: sqlx::Encode<'a, sqlx::Any> + sqlx::Type<sqlx::Any> + Send + 'a,
+        S: sqlx::Encode<'a, sqlx::Any> + sqlx::Type<sqlx::Any> + Send + 'a,
     {
         sqlx::query(
             "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format,
                                gzip, blob_path, metadata, run_time, uploaded_at)
-             VALUES (?1, 'U', ?1, 0, 0, 'csv', 0, 'runs/x', '{}', 0, 0)",
+             VALUES ($1, 'U', $1, 0, 0, 'csv', FALSE, 'runs/x', '{}', 0, 0)",
         )
         .bind(id)
         .execute(&mut *conn)
         .await?;
         sqlx::query(
             "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
-             VALUES (?1, ?1, ?2, ?3, 1, 0, 0)",
+             VALUES ($1, $1, $2, $3, 1, 0, 0)",
         )
         .bind(id)
         .bind(kind)
         .bind(state)
         .execute(&mut *conn)
         .await?;
-        sqlx::query_as("SELECT * FROM jobs WHERE id = ?")
+        sqlx::query_as("SELECT * FROM jobs WHERE id = $1")
             .bind(id)
             .fetch_one(&mut *conn)
             .await
@@ -288,7 +295,7 @@ mod tests {
     #[tokio::test]
     async fn every_kind_and_state_is_a_value_the_schema_accepts() {
         let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("k.db"), 1).await.unwrap();
+        let store = Store::open_for_test(&dir.path().join("k.db")).await;
         let mut tx = store.begin_write().await.unwrap();
         sqlx::query("INSERT INTO units (serial, created_at) VALUES ('U', 0)")
             .execute(&mut *tx)

@@ -15,7 +15,8 @@ use std::str::FromStr;
 
 use sqlx::encode::IsNull;
 use sqlx::error::BoxDynError;
-use sqlx::sqlite::{Sqlite, SqliteArgumentValue, SqliteTypeInfo, SqliteValueRef};
+use sqlx::any::{Any, AnyTypeInfo, AnyTypeInfoKind, AnyValueRef};
+use sqlx::ValueRef as _;
 
 use crate::accept::VerdictStatus;
 
@@ -138,32 +139,100 @@ macro_rules! stored_as_text {
             }
         }
 
-        impl sqlx::Type<Sqlite> for $t {
-            fn type_info() -> SqliteTypeInfo {
-                <&str as sqlx::Type<Sqlite>>::type_info()
+        impl sqlx::Type<Any> for $t {
+            fn type_info() -> AnyTypeInfo {
+                <&str as sqlx::Type<Any>>::type_info()
             }
-            fn compatible(ty: &SqliteTypeInfo) -> bool {
-                <&str as sqlx::Type<Sqlite>>::compatible(ty)
+            fn compatible(ty: &AnyTypeInfo) -> bool {
+                <&str as sqlx::Type<Any>>::compatible(ty)
             }
         }
 
-        impl<'q> sqlx::Encode<'q, Sqlite> for $t {
+        impl<'q> sqlx::Encode<'q, Any> for $t {
             fn encode_by_ref(
                 &self,
-                args: &mut Vec<SqliteArgumentValue<'q>>,
+                args: &mut <Any as sqlx::Database>::ArgumentBuffer<'q>,
             ) -> Result<IsNull, BoxDynError> {
                 let s: &'q str = self.as_str();
-                <&str as sqlx::Encode<'q, Sqlite>>::encode_by_ref(&s, args)
+                <&str as sqlx::Encode<'q, Any>>::encode_by_ref(&s, args)
             }
         }
 
-        impl<'r> sqlx::Decode<'r, Sqlite> for $t {
-            fn decode(value: SqliteValueRef<'r>) -> Result<Self, BoxDynError> {
-                let s = <&str as sqlx::Decode<'r, Sqlite>>::decode(value)?;
+        impl<'r> sqlx::Decode<'r, Any> for $t {
+            fn decode(value: AnyValueRef<'r>) -> Result<Self, BoxDynError> {
+                let s = <&str as sqlx::Decode<'r, Any>>::decode(value)?;
                 Ok(s.parse::<$t>()?)
             }
         }
     )*};
+}
+
+/// A flag column as read: BOOLEAN on PostgreSQL, 0/1 INTEGER on SQLite
+/// (which has no boolean type). Row structs read a `bool` through it
+/// (`#[sqlx(try_from = "Flag")]`); writes bind `bool`, which each driver
+/// stores in its own way.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Flag(bool);
+
+/// A nullable flag column (see [`Flag`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct OptionalFlag(Option<bool>);
+
+impl From<Flag> for bool {
+    fn from(f: Flag) -> bool {
+        f.0
+    }
+}
+
+impl From<OptionalFlag> for Option<bool> {
+    fn from(f: OptionalFlag) -> Option<bool> {
+        f.0
+    }
+}
+
+fn decode_flag(value: AnyValueRef<'_>) -> Result<bool, BoxDynError> {
+    if value.type_info().kind() == AnyTypeInfoKind::Bool {
+        <bool as sqlx::Decode<Any>>::decode(value)
+    } else {
+        Ok(<i64 as sqlx::Decode<Any>>::decode(value)? != 0)
+    }
+}
+
+fn is_flag_type(ty: &AnyTypeInfo) -> bool {
+    ty.kind() == AnyTypeInfoKind::Bool || ty.kind().is_integer()
+}
+
+impl sqlx::Type<Any> for Flag {
+    fn type_info() -> AnyTypeInfo {
+        <bool as sqlx::Type<Any>>::type_info()
+    }
+    fn compatible(ty: &AnyTypeInfo) -> bool {
+        is_flag_type(ty)
+    }
+}
+
+impl<'r> sqlx::Decode<'r, Any> for Flag {
+    fn decode(value: AnyValueRef<'r>) -> Result<Self, BoxDynError> {
+        decode_flag(value).map(Flag)
+    }
+}
+
+impl sqlx::Type<Any> for OptionalFlag {
+    fn type_info() -> AnyTypeInfo {
+        <bool as sqlx::Type<Any>>::type_info()
+    }
+    fn compatible(ty: &AnyTypeInfo) -> bool {
+        is_flag_type(ty)
+    }
+}
+
+impl<'r> sqlx::Decode<'r, Any> for OptionalFlag {
+    fn decode(value: AnyValueRef<'r>) -> Result<Self, BoxDynError> {
+        if value.is_null() {
+            return Ok(OptionalFlag(None));
+        }
+        decode_flag(value).map(|b| OptionalFlag(Some(b)))
+    }
 }
 
 stored_as_text!(

@@ -1,13 +1,16 @@
-//! The server's SQLite database: the pool, the migrations and every SQL
-//! statement of the project. Nothing outside this module writes SQL; the
+//! The server's database, on SQLite (the embedded default) or PostgreSQL:
+//! the pools, the migrations and every SQL statement of the project. Nothing outside this module writes SQL; the
 //! public methods of [`Store`] are the one storage interface (the seam a
 //! second database backend would implement).
 //!
 //! Files, by what they own (each a leaf or using only its siblings, never
 //! this file):
 //! - `error`: [`StoreError`] and which errors mean a full disk;
+//! - `dialect`: where SQLite and PostgreSQL differ ([`Backend`]);
 //! - `kinds`: the TEXT vocabularies as types ([`Role`], [`JobKind`],
 //!   [`JobState`]);
+//! - `hints`: queued-job notifications to other processes' workers
+//!   ([`JobHints`], PostgreSQL);
 //! - `db`: [`Store`] itself: pools, opening with migrations, the write
 //!   transaction, the readiness probes;
 //! - `tokens`: bearer tokens;
@@ -26,7 +29,9 @@
 //!   again when one changes.
 
 mod db;
+mod dialect;
 mod error;
+mod hints;
 mod jobs;
 mod kinds;
 mod products;
@@ -38,8 +43,10 @@ mod spread;
 mod tokens;
 mod verdicts;
 
-pub use db::{now_ms, Store};
+pub use db::{now_ms, DatabaseUrl, Store};
+pub use dialect::{Backend, JOBS_CHANNEL};
 pub use error::{is_storage_full_io, StoreError};
+pub use hints::JobHints;
 pub use jobs::{CalibrationRequeued, DiagnoseQueued, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};

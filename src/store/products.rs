@@ -4,6 +4,7 @@
 use sqlx::FromRow;
 
 use super::db::{now_ms, Store, WriteTx};
+use super::dialect::{lock_key, product_key, Backend};
 use super::error::StoreError;
 use super::verdicts::refresh_product;
 use crate::accept::ProductLimits;
@@ -52,7 +53,7 @@ impl Store {
 
     pub async fn get_product_type(&self, name: &str) -> Result<Option<ProductTypeRow>, StoreError> {
         Ok(sqlx::query_as(&format!(
-            "SELECT {COLUMNS} FROM product_types WHERE name = ?"
+            "SELECT {COLUMNS} FROM product_types WHERE name = $1"
         ))
         .bind(name)
         .fetch_optional(&self.read)
@@ -68,11 +69,12 @@ impl Store {
     ) -> Result<Option<ProductTypeRow>, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
+        lock_key(self.backend, &mut tx, &product_key(change.name)).await?;
         let limits = serde_json::to_string(change.limits)?;
         let revision = next_revision(&mut tx, change.name).await?;
         let created = sqlx::query(
             "INSERT INTO product_types (name, description, limits, revision, created_at, updated_at)
-             VALUES (?1, ?2, ?3, ?4, ?5, ?5) ON CONFLICT (name) DO NOTHING",
+             VALUES ($1, $2, $3, $4, $5, $5) ON CONFLICT (name) DO NOTHING",
         )
         .bind(change.name)
         .bind(change.description)
@@ -84,7 +86,7 @@ impl Store {
         if created.rows_affected() == 0 {
             return Ok(None);
         }
-        let row = record_revision(&mut tx, &change, Some(&limits), revision, now).await?;
+        let row = record_revision(self.backend, &mut tx, &change, Some(&limits), revision, now).await?;
         tx.commit().await?;
         Ok(row)
     }
@@ -98,11 +100,12 @@ impl Store {
     ) -> Result<Option<ProductTypeRow>, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
+        lock_key(self.backend, &mut tx, &product_key(change.name)).await?;
         let limits = serde_json::to_string(change.limits)?;
         let revision = next_revision(&mut tx, change.name).await?;
         let updated = sqlx::query(
-            "UPDATE product_types SET description = ?, limits = ?, revision = ?, updated_at = ?
-             WHERE name = ?",
+            "UPDATE product_types SET description = $1, limits = $2, revision = $3, updated_at = $4
+             WHERE name = $5",
         )
         .bind(change.description)
         .bind(&limits)
@@ -114,7 +117,7 @@ impl Store {
         if updated.rows_affected() == 0 {
             return Ok(None);
         }
-        let row = record_revision(&mut tx, &change, Some(&limits), revision, now).await?;
+        let row = record_revision(self.backend, &mut tx, &change, Some(&limits), revision, now).await?;
         tx.commit().await?;
         Ok(row)
     }
@@ -125,7 +128,8 @@ impl Store {
     pub async fn delete_product_type(&self, name: &str, by: &str) -> Result<bool, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
-        let deleted = sqlx::query("DELETE FROM product_types WHERE name = ?")
+        lock_key(self.backend, &mut tx, &product_key(name)).await?;
+        let deleted = sqlx::query("DELETE FROM product_types WHERE name = $1")
             .bind(name)
             .execute(&mut *tx)
             .await?;
@@ -135,7 +139,7 @@ impl Store {
         let revision = next_revision(&mut tx, name).await?;
         sqlx::query(
             "INSERT INTO product_type_revisions (name, revision, description, limits, changed_at, changed_by)
-             VALUES (?, ?, NULL, NULL, ?, ?)",
+             VALUES ($1, $2, NULL, NULL, $3, $4)",
         )
         .bind(name)
         .bind(revision)
@@ -143,7 +147,7 @@ impl Store {
         .bind(by)
         .execute(&mut *tx)
         .await?;
-        refresh_product(&mut tx, name, now).await?;
+        refresh_product(self.backend, &mut tx, name, now).await?;
         tx.commit().await?;
         Ok(true)
     }
@@ -152,7 +156,7 @@ impl Store {
 /// The next revision of a name: one past any it ever had.
 async fn next_revision(tx: &mut WriteTx, name: &str) -> Result<i64, StoreError> {
     let last: Option<i64> =
-        sqlx::query_scalar("SELECT MAX(revision) FROM product_type_revisions WHERE name = ?")
+        sqlx::query_scalar("SELECT MAX(revision) FROM product_type_revisions WHERE name = $1")
             .bind(name)
             .fetch_one(&mut **tx)
             .await?;
@@ -162,6 +166,7 @@ async fn next_revision(tx: &mut WriteTx, name: &str) -> Result<i64, StoreError> 
 /// Keeps the revision, judges again the verdicts it touches, and reads the
 /// product type back.
 async fn record_revision(
+    backend: Backend,
     tx: &mut WriteTx,
     change: &ProductTypeChange<'_>,
     limits: Option<&str>,
@@ -170,7 +175,7 @@ async fn record_revision(
 ) -> Result<Option<ProductTypeRow>, StoreError> {
     sqlx::query(
         "INSERT INTO product_type_revisions (name, revision, description, limits, changed_at, changed_by)
-         VALUES (?, ?, ?, ?, ?, ?)",
+         VALUES ($1, $2, $3, $4, $5, $6)",
     )
     .bind(change.name)
     .bind(revision)
@@ -180,9 +185,9 @@ async fn record_revision(
     .bind(change.by)
     .execute(&mut **tx)
     .await?;
-    refresh_product(tx, change.name, now).await?;
+    refresh_product(backend, tx, change.name, now).await?;
     Ok(sqlx::query_as(&format!(
-        "SELECT {COLUMNS} FROM product_types WHERE name = ?"
+        "SELECT {COLUMNS} FROM product_types WHERE name = $1"
     ))
     .bind(change.name)
     .fetch_optional(&mut **tx)
@@ -265,7 +270,7 @@ mod tests {
     #[tokio::test]
     async fn verdicts_follow_the_product_type_and_the_history() {
         let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("p.db"), 1).await.unwrap();
+        let store = Store::open_for_test(&dir.path().join("p.db")).await;
         let a1 = seed(&store, "A", Some("P1"), 1, 1.0).await;
         let a2 = seed(&store, "A", Some("P1"), 2, 1.2).await;
         let b1 = seed(&store, "B", None, 1, 5.0).await;

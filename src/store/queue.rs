@@ -5,12 +5,13 @@
 
 use std::time::Duration;
 
-use sqlx::sqlite::{Sqlite, SqliteArguments};
+use sqlx::any::{Any, AnyArguments};
 use sqlx::{FromRow, Row};
 
 use super::db::{now_ms, Store, WriteTx};
+use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
-use super::kinds::{JobKind, JobState};
+use super::kinds::{Flag, JobKind, JobState};
 use super::results::{insert_result, StoredResult};
 use crate::calib::CalibrationResult;
 
@@ -62,14 +63,14 @@ impl Fenced {
     fn update_returning(set: &str, returning: &str) -> Fenced {
         Fenced(format!(
             "UPDATE jobs SET {set}
-             WHERE id = ?1 AND attempts = ?2 AND lease_owner = ?3 AND state = 'running' {returning}"
+             WHERE id = $1 AND attempts = $2 AND lease_owner = $3 AND state = 'running' {returning}"
         ))
     }
 
     fn query<'q>(
         &'q self,
         fence: &'q Fence,
-    ) -> sqlx::query::Query<'q, Sqlite, SqliteArguments<'q>> {
+    ) -> sqlx::query::Query<'q, Any, AnyArguments<'q>> {
         sqlx::query(&self.0)
             .bind(&fence.job_id)
             .bind(fence.attempt)
@@ -107,7 +108,7 @@ impl Store {
     ) -> Result<Option<WriteTx>, StoreError> {
         let mut tx = self.begin_write().await?;
         let sql = Fenced::update(
-            "state = 'succeeded', progress = 1, stage = 'done', finished_at = ?4,
+            "state = 'succeeded', progress = 1, stage = 'done', finished_at = $4,
                 lease_owner = NULL, lease_expires_at = NULL",
         );
         let updated = sql.query(fence).bind(now).execute(&mut *tx).await?;
@@ -131,30 +132,32 @@ impl Store {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
         sqlx::query(
-            "UPDATE jobs SET state = 'cancelled', finished_at = ?1, lease_owner = NULL, lease_expires_at = NULL
-             WHERE state = 'running' AND lease_expires_at < ?1 AND cancel_requested = 1",
+            "UPDATE jobs SET state = 'cancelled', finished_at = $1, lease_owner = NULL, lease_expires_at = NULL
+             WHERE state = 'running' AND lease_expires_at < $1 AND cancel_requested = TRUE",
         )
         .bind(now)
         .execute(&mut *tx)
         .await?;
         sqlx::query(
-            "UPDATE jobs SET state = 'failed', finished_at = ?1, lease_owner = NULL, lease_expires_at = NULL,
+            "UPDATE jobs SET state = 'failed', finished_at = $1, lease_owner = NULL, lease_expires_at = NULL,
                     error = 'the worker was lost (lease expired) on the last allowed attempt'
-             WHERE state = 'running' AND lease_expires_at < ?1 AND attempts >= max_attempts",
+             WHERE state = 'running' AND lease_expires_at < $1 AND attempts >= max_attempts",
         )
         .bind(now)
         .execute(&mut *tx)
         .await?;
-        let claimed: Option<Claimed> = sqlx::query_as(
-            "UPDATE jobs SET state = 'running', attempts = attempts + 1, lease_owner = ?1,
-                    lease_expires_at = ?2, heartbeat_at = ?3, started_at = COALESCE(started_at, ?3),
+        let claim_sql = format!(
+            "UPDATE jobs SET state = 'running', attempts = attempts + 1, lease_owner = $1,
+                    lease_expires_at = $2, heartbeat_at = $3, started_at = COALESCE(started_at, $3),
                     progress = 0, stage = 'claimed'
              WHERE id = (SELECT id FROM jobs
-                         WHERE (state = 'queued' AND run_after <= ?3)
-                            OR (state = 'running' AND lease_expires_at < ?3)
-                         ORDER BY created_at, id LIMIT 1)
+                         WHERE (state = 'queued' AND run_after <= $3)
+                            OR (state = 'running' AND lease_expires_at < $3)
+                         ORDER BY created_at, id LIMIT 1 {})
              RETURNING id, run_id, attempts, max_attempts, kind",
-        )
+            self.backend.skip_locked()
+        );
+        let claimed: Option<Claimed> = sqlx::query_as(&claim_sql)
         .bind(owner)
         .bind(now + lease.as_millis() as i64)
         .bind(now)
@@ -165,7 +168,7 @@ impl Store {
             return Ok(None);
         };
         let run: ClaimedRun = sqlx::query_as(
-            "SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = ?",
+            "SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = $1",
         )
         .bind(&c.run_id)
         .fetch_one(&mut *tx)
@@ -198,7 +201,7 @@ impl Store {
     ) -> Result<Option<bool>, StoreError> {
         let now = now_ms();
         let sql = Fenced::update_returning(
-            "lease_expires_at = ?4, heartbeat_at = ?5, progress = ?6, stage = ?7",
+            "lease_expires_at = $4, heartbeat_at = $5, progress = $6, stage = $7",
             "RETURNING cancel_requested",
         );
         let row = sql
@@ -209,7 +212,8 @@ impl Store {
             .bind(stage)
             .fetch_optional(&self.write)
             .await?;
-        Ok(row.map(|r| r.try_get("cancel_requested")).transpose()?)
+        let cancel = row.map(|r| r.try_get::<Flag, _>("cancel_requested"));
+        Ok(cancel.transpose()?.map(bool::from))
     }
 
     /// Stores a result and marks the job succeeded, in one transaction, if
@@ -232,6 +236,8 @@ impl Store {
         let Some(mut tx) = self.begin_succeeded(fence, now).await? else {
             return Ok(false);
         };
+        lock_key(self.backend, &mut tx, &run_key(&claim.run_id)).await?;
+        lock_key(self.backend, &mut tx, &unit_key(&claim.unit_serial)).await?;
         let stored = StoredResult {
             run_id: &claim.run_id,
             job_id: &fence.job_id,
@@ -253,8 +259,8 @@ impl Store {
         if !adequate && on_inadequate.queue_diagnose {
             sqlx::query(
                 "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
-                 SELECT ?, ?, 'diagnose', 'queued', ?, ?, ?
-                 WHERE NOT EXISTS (SELECT 1 FROM jobs WHERE run_id = ? AND kind = 'diagnose'
+                 SELECT $1, $2, 'diagnose', 'queued', $3, $4, $5
+                 WHERE NOT EXISTS (SELECT 1 FROM jobs WHERE run_id = $6 AND kind = 'diagnose'
                                    AND state IN ('queued', 'running'))",
             )
             .bind(uuid::Uuid::new_v4().to_string())
@@ -265,6 +271,7 @@ impl Store {
             .bind(&claim.run_id)
             .execute(&mut *tx)
             .await?;
+            hint_job_queued(self.backend, &mut tx).await?;
         }
         tx.commit().await?;
         Ok(true)
@@ -285,7 +292,7 @@ impl Store {
             return Ok(false);
         };
         sqlx::query(
-            "INSERT INTO diagnoses (job_id, run_id, completed_at, report) VALUES (?, ?, ?, ?)",
+            "INSERT INTO diagnoses (job_id, run_id, completed_at, report) VALUES ($1, $2, $3, $4)",
         )
         .bind(&fence.job_id)
         .bind(&claim.run_id)
@@ -309,9 +316,9 @@ impl Store {
     ) -> Result<Option<JobState>, StoreError> {
         let now = now_ms();
         let sql = Fenced::update_returning(
-            "state = CASE WHEN ?4 AND attempts < max_attempts THEN 'queued' ELSE 'failed' END,
-                finished_at = CASE WHEN ?4 AND attempts < max_attempts THEN NULL ELSE ?5 END,
-                run_after = ?6, error = ?7, stage = 'failed attempt',
+            "state = CASE WHEN $4 AND attempts < max_attempts THEN 'queued' ELSE 'failed' END,
+                finished_at = CASE WHEN $4 AND attempts < max_attempts THEN NULL ELSE $5 END,
+                run_after = $6, error = $7, stage = 'failed attempt',
                 lease_owner = NULL, lease_expires_at = NULL",
             "RETURNING state",
         );
@@ -329,7 +336,7 @@ impl Store {
     /// Marks a job cancelled after its worker stopped on request.
     pub async fn finish_cancelled(&self, fence: &Fence) -> Result<bool, StoreError> {
         let sql = Fenced::update(
-            "state = 'cancelled', finished_at = ?4, stage = 'cancelled',
+            "state = 'cancelled', finished_at = $4, stage = 'cancelled',
                 lease_owner = NULL, lease_expires_at = NULL",
         );
         let r = sql.query(fence).bind(now_ms()).execute(&self.write).await?;
@@ -340,11 +347,15 @@ impl Store {
     /// counted: the job did not fail, the server stopped.
     pub async fn release_job(&self, fence: &Fence) -> Result<bool, StoreError> {
         let sql = Fenced::update(
-            "state = 'queued', attempts = attempts - 1, run_after = ?4,
+            "state = 'queued', attempts = attempts - 1, run_after = $4,
                 stage = 'handed back at shutdown', progress = 0,
                 lease_owner = NULL, lease_expires_at = NULL",
         );
-        let r = sql.query(fence).bind(now_ms()).execute(&self.write).await?;
+        let mut tx = self.begin_write().await?;
+        let r = sql.query(fence).bind(now_ms()).execute(&mut *tx).await?;
+        // Another process's idle worker may take it at once.
+        hint_job_queued(self.backend, &mut tx).await?;
+        tx.commit().await?;
         Ok(r.rows_affected() == 1)
     }
 }
@@ -356,7 +367,7 @@ mod tests {
 
     async fn store_with_one_job() -> (tempfile::TempDir, Store, String) {
         let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("q.db"), 1).await.unwrap();
+        let store = Store::open_for_test(&dir.path().join("q.db")).await;
         let new = NewRun {
             run_id: "run-1".into(),
             job_id: "job-1".into(),

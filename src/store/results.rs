@@ -9,6 +9,7 @@ use sqlx::FromRow;
 use super::db::{Store, WriteTx};
 use super::error::StoreError;
 use super::jobs::by_state_name;
+use super::kinds::OptionalFlag;
 use super::runs::{insert_unit_and_run, NewRun};
 use super::spread::{self, ParamSpread, SpreadAccumulator};
 use super::verdicts::{refresh_unit, StoredVerdict};
@@ -70,6 +71,7 @@ pub struct HistoryRow {
     pub run_time: i64,
     pub completed_at: i64,
     pub parameters: String,
+    #[sqlx(try_from = "OptionalFlag")]
     pub model_adequate: Option<bool>,
     pub model_summary: Option<String>,
     pub verdict_detail: Option<String>,
@@ -114,7 +116,7 @@ const UNIT_COLUMNS: &str = "u.serial, u.created_at,
 impl Store {
     pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
         Ok(
-            sqlx::query_scalar("SELECT result FROM result_documents WHERE run_id = ?")
+            sqlx::query_scalar("SELECT result FROM result_documents WHERE run_id = $1")
                 .bind(run_id)
                 .fetch_optional(&self.read)
                 .await?,
@@ -124,7 +126,7 @@ impl Store {
     /// The report of a run's most recent successful diagnosis.
     pub async fn latest_diagnosis(&self, run_id: &str) -> Result<Option<String>, StoreError> {
         Ok(sqlx::query_scalar(
-            "SELECT report FROM diagnoses WHERE run_id = ?
+            "SELECT report FROM diagnoses WHERE run_id = $1
              ORDER BY completed_at DESC, job_id DESC LIMIT 1",
         )
         .bind(run_id)
@@ -141,12 +143,18 @@ impl Store {
         limit: i64,
         offset: i64,
     ) -> Result<(i64, Vec<UnitSummary>), StoreError> {
-        let mut conditions = Vec::new();
+        // Each condition takes the next parameter number; LIMIT and OFFSET
+        // follow the last.
+        let mut conditions: Vec<String> = Vec::new();
+        let mut next = |condition: &str| {
+            let n = conditions.len() + 1;
+            conditions.push(condition.replace("$?", &format!("${n}")));
+        };
         if filter.verdict.is_some() {
-            conditions.push("u.verdict = ?");
+            next("u.verdict = $?");
         }
         if filter.product.is_some() {
-            conditions.push("u.product = ?");
+            next("u.product = $?");
         }
         // LIKE's wildcards in the search text match themselves.
         let pattern = filter.serial_contains.as_ref().map(|text| {
@@ -157,8 +165,9 @@ impl Store {
             format!("%{escaped}%")
         });
         if pattern.is_some() {
-            conditions.push("u.serial LIKE ? ESCAPE '\\'");
+            next("u.serial LIKE $? ESCAPE '\\'");
         }
+        let (limit_n, offset_n) = (conditions.len() + 1, conditions.len() + 2);
         let filter_sql = if conditions.is_empty() {
             String::new()
         } else {
@@ -167,7 +176,7 @@ impl Store {
         let count_sql = format!("SELECT COUNT(*) FROM units u {filter_sql}");
         let mut count = sqlx::query_scalar(&count_sql);
         let rows_sql =
-            format!("SELECT {UNIT_COLUMNS} {filter_sql} ORDER BY u.serial LIMIT ? OFFSET ?");
+            format!("SELECT {UNIT_COLUMNS} {filter_sql} ORDER BY u.serial LIMIT ${limit_n} OFFSET ${offset_n}");
         let mut rows = sqlx::query_as(&rows_sql);
         if let Some(v) = filter.verdict {
             count = count.bind(v);
@@ -188,7 +197,7 @@ impl Store {
 
     pub async fn get_unit(&self, serial: &str) -> Result<Option<UnitSummary>, StoreError> {
         Ok(
-            sqlx::query_as(&format!("SELECT {UNIT_COLUMNS} WHERE u.serial = ?"))
+            sqlx::query_as(&format!("SELECT {UNIT_COLUMNS} WHERE u.serial = $1"))
                 .bind(serial)
                 .fetch_optional(&self.read)
                 .await?,
@@ -199,7 +208,7 @@ impl Store {
     pub async fn unit_job_counts(&self, serial: &str) -> Result<BTreeMap<String, i64>, StoreError> {
         let rows = sqlx::query_as(
             "SELECT j.state, COUNT(*) AS n FROM jobs j JOIN runs r ON r.id = j.run_id
-             WHERE r.unit_serial = ? GROUP BY j.state",
+             WHERE r.unit_serial = $1 GROUP BY j.state",
         )
         .bind(serial)
         .fetch_all(&self.read)
@@ -221,9 +230,9 @@ impl Store {
         // Two fixed statements rather than `?4 IS NULL OR …`, which the
         // planner cannot serve from an index.
         let filter = if verdict.is_some() {
-            "unit_serial = ?1 AND verdict = ?4 AND run_time >= ?2 AND run_time < ?3"
+            "unit_serial = $1 AND verdict = $4 AND run_time >= $2 AND run_time < $3"
         } else {
-            "unit_serial = ?1 AND run_time >= ?2 AND run_time < ?3 AND ?4 IS NULL"
+            "unit_serial = $1 AND run_time >= $2 AND run_time < $3 AND $4 IS NULL"
         };
         let total = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM results WHERE {filter}"))
             .bind(serial)
@@ -237,7 +246,7 @@ impl Store {
                     model_summary, verdict_detail, verdict_product, verdict_revision, verdict_at
              FROM results
              WHERE {filter}
-             ORDER BY run_time, run_id LIMIT ?5 OFFSET ?6"
+             ORDER BY run_time, run_id LIMIT $5 OFFSET $6"
         ))
         .bind(serial)
         .bind(from)
@@ -263,9 +272,9 @@ impl Store {
     ) -> Result<Vec<ThermalRow>, StoreError> {
         Ok(sqlx::query_as(
             "SELECT run_id, run_time, parameters, temperature_c FROM results
-             WHERE unit_serial = ?1 AND run_time >= ?2 AND run_time < ?3
-               AND temperature_c IS NOT NULL AND temperature_span_c <= ?4
-               AND (?5 IS NULL OR verdict = ?5)
+             WHERE unit_serial = $1 AND run_time >= $2 AND run_time < $3
+               AND temperature_c IS NOT NULL AND temperature_span_c <= $4
+               AND ($5 IS NULL OR verdict = $5)
              ORDER BY run_time, run_id",
         )
         .bind(serial)
@@ -291,8 +300,8 @@ impl Store {
         // Newest first so that LIMIT keeps the `last` most recent (a
         // negative LIMIT is none in SQLite), then back to time order.
         let mut blobs: Vec<Vec<u8>> = sqlx::query_scalar(
-            "SELECT param_values FROM results WHERE unit_serial = ? AND run_time >= ?
-             ORDER BY run_time DESC, run_id DESC LIMIT ?",
+            "SELECT param_values FROM results WHERE unit_serial = $1 AND run_time >= $2
+             ORDER BY run_time DESC, run_id DESC LIMIT $3",
         )
         .bind(serial)
         .bind(since)
@@ -320,7 +329,7 @@ impl Store {
         insert_unit_and_run(&mut tx, new).await?;
         sqlx::query(
             "INSERT INTO jobs (id, run_id, state, attempts, max_attempts, run_after, progress, created_at, finished_at)
-             VALUES (?, ?, 'succeeded', 1, ?, ?, 1, ?, ?)",
+             VALUES ($1, $2, 'succeeded', 1, $3, $4, 1, $5, $6)",
         )
         .bind(&new.job_id)
         .bind(&new.run_id)
@@ -376,7 +385,7 @@ pub(super) async fn insert_result(
         "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
                               param_values, model_adequate, model_summary, poorly_observable,
                               cross_check_flagged, temperature_c, temperature_span_c)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
     )
     .bind(r.run_id)
     .bind(r.job_id)
@@ -393,7 +402,7 @@ pub(super) async fn insert_result(
     .bind(r.temperature.map(|t| t.max_c - t.min_c))
     .execute(&mut **tx)
     .await?;
-    sqlx::query("INSERT INTO result_documents (run_id, result) VALUES (?, ?)")
+    sqlx::query("INSERT INTO result_documents (run_id, result) VALUES ($1, $2)")
         .bind(r.run_id)
         .bind(r.document)
         .execute(&mut **tx)

@@ -5,9 +5,10 @@
 use sqlx::FromRow;
 
 use super::db::{now_ms, Store, WriteTx};
+use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
 use super::jobs::count_queued;
-use super::kinds::JobState;
+use super::kinds::{Flag, JobState, OptionalFlag};
 use super::verdicts::{refresh_unit, refresh_unit_row, StoredVerdict};
 
 /// A run's row with its calibration job and its result's columns (`r` the
@@ -25,6 +26,7 @@ pub struct RunFile {
     pub size_bytes: i64,
     pub records: i64,
     pub format: String,
+    #[sqlx(try_from = "Flag")]
     pub gzip: bool,
     pub blob_path: String,
     /// The metadata JSON as uploaded.
@@ -46,10 +48,10 @@ pub struct RunRow {
     pub uploaded_by: Option<String>,
     pub job_id: String,
     /// Whether the run has a result (read by [`Store::get_run`]).
-    #[sqlx(default)]
+    #[sqlx(default, try_from = "Flag")]
     pub calibrated: bool,
     /// The result's model check, when there is a result.
-    #[sqlx(default)]
+    #[sqlx(default, try_from = "OptionalFlag")]
     pub model_adequate: Option<bool>,
     #[sqlx(default)]
     pub model_summary: Option<String>,
@@ -160,7 +162,7 @@ impl Store {
         Ok(sqlx::query_as(
             "SELECT r.*, j.id AS job_id FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
-             WHERE r.unit_serial = ? AND r.sha256 = ?",
+             WHERE r.unit_serial = $1 AND r.sha256 = $2",
         )
         .bind(unit_serial)
         .bind(sha256)
@@ -176,10 +178,13 @@ impl Store {
         max_queue: i64,
     ) -> Result<InsertOutcome, StoreError> {
         let mut tx = self.begin_write().await?;
+        // Two servers receiving the same bytes for the unit at once: the
+        // second waits, then finds the first's run.
+        lock_key(self.backend, &mut tx, &unit_key(&new.unit_serial)).await?;
         let existing: Option<RunAndJob> = sqlx::query_as(
             "SELECT r.id AS run_id, j.id AS job_id FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
-             WHERE r.unit_serial = ? AND r.sha256 = ?",
+             WHERE r.unit_serial = $1 AND r.sha256 = $2",
         )
         .bind(&new.unit_serial)
         .bind(&new.file.sha256)
@@ -194,7 +199,7 @@ impl Store {
         insert_unit_and_run(&mut tx, new).await?;
         sqlx::query(
             "INSERT INTO jobs (id, run_id, state, max_attempts, run_after, created_at)
-             VALUES (?, ?, 'queued', ?, ?, ?)",
+             VALUES ($1, $2, 'queued', $3, $4, $5)",
         )
         .bind(&new.job_id)
         .bind(&new.run_id)
@@ -203,13 +208,14 @@ impl Store {
         .bind(new.uploaded_at)
         .execute(&mut *tx)
         .await?;
+        hint_job_queued(self.backend, &mut tx).await?;
         tx.commit().await?;
         Ok(InsertOutcome::Created)
     }
 
     pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
         Ok(
-            sqlx::query_as(&format!("SELECT {RUN_COLUMNS} WHERE r.id = ?"))
+            sqlx::query_as(&format!("SELECT {RUN_COLUMNS} WHERE r.id = $1"))
                 .bind(id)
                 .fetch_optional(&self.read)
                 .await?,
@@ -224,8 +230,8 @@ impl Store {
         limit: i64,
     ) -> Result<Vec<RunRow>, StoreError> {
         Ok(sqlx::query_as(&format!(
-            "SELECT {RUN_COLUMNS} WHERE r.uploaded_by = ?
-             ORDER BY r.uploaded_at DESC, r.id DESC LIMIT ?"
+            "SELECT {RUN_COLUMNS} WHERE r.uploaded_by = $1
+             ORDER BY r.uploaded_at DESC, r.id DESC LIMIT $2"
         ))
         .bind(token_id)
         .bind(limit)
@@ -245,18 +251,20 @@ impl Store {
     /// its jobs is running.
     pub async fn delete_run(&self, id: &str) -> Result<RunDeletion, StoreError> {
         let mut tx = self.begin_write().await?;
+        lock_key(self.backend, &mut tx, &run_key(id)).await?;
         let run: Option<(String, String, i64)> =
-            sqlx::query_as("SELECT blob_path, unit_serial, run_time FROM runs WHERE id = ?")
+            sqlx::query_as("SELECT blob_path, unit_serial, run_time FROM runs WHERE id = $1")
                 .bind(id)
                 .fetch_optional(&mut *tx)
                 .await?;
         let Some((blob_path, serial, run_time)) = run else {
             return Ok(RunDeletion::NoRun);
         };
+        lock_key(self.backend, &mut tx, &unit_key(&serial)).await?;
         // Any of the run's jobs (calibration or diagnosis) still working
         // holds its file open and would write rows after the delete.
         let running: i64 =
-            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE run_id = ? AND state = 'running'")
+            sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE run_id = $1 AND state = 'running'")
                 .bind(id)
                 .fetch_one(&mut *tx)
                 .await?;
@@ -264,11 +272,11 @@ impl Store {
             return Ok(RunDeletion::JobBusy(JobState::Running));
         }
         for sql in [
-            "DELETE FROM result_documents WHERE run_id = ?",
-            "DELETE FROM results WHERE run_id = ?",
-            "DELETE FROM diagnoses WHERE run_id = ?",
-            "DELETE FROM jobs WHERE run_id = ?",
-            "DELETE FROM runs WHERE id = ?",
+            "DELETE FROM result_documents WHERE run_id = $1",
+            "DELETE FROM results WHERE run_id = $1",
+            "DELETE FROM diagnoses WHERE run_id = $1",
+            "DELETE FROM jobs WHERE run_id = $1",
+            "DELETE FROM runs WHERE id = $1",
         ] {
             sqlx::query(sql).bind(id).execute(&mut *tx).await?;
         }
@@ -282,7 +290,7 @@ impl Store {
 /// The unit (if new) and the run's row, inside the caller's write
 /// transaction; a run's time is its recording time, else its upload time.
 pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Result<(), StoreError> {
-    sqlx::query("INSERT OR IGNORE INTO units (serial, created_at) VALUES (?, ?)")
+    sqlx::query("INSERT INTO units (serial, created_at) VALUES ($1, $2) ON CONFLICT DO NOTHING")
         .bind(&new.unit_serial)
         .bind(new.uploaded_at)
         .execute(&mut **tx)
@@ -290,7 +298,7 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     sqlx::query(
         "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
                            metadata, recorded_at, run_time, uploaded_at, uploaded_by, product)
-         VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
     )
     .bind(&new.run_id)
     .bind(&new.unit_serial)

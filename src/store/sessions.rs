@@ -25,12 +25,12 @@ impl Store {
     ) -> Result<(), StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
-        sqlx::query("DELETE FROM sessions WHERE expires_at <= ?")
+        sqlx::query("DELETE FROM sessions WHERE expires_at <= $1")
             .bind(now)
             .execute(&mut *tx)
             .await?;
         sqlx::query(
-            "INSERT INTO sessions (hash, token_id, created_at, expires_at) VALUES (?, ?, ?, ?)",
+            "INSERT INTO sessions (hash, token_id, created_at, expires_at) VALUES ($1, $2, $3, $4)",
         )
         .bind(hash)
         .bind(token_id)
@@ -47,7 +47,7 @@ impl Store {
     pub async fn session_role(&self, hash: &str) -> Result<Option<(String, Role)>, StoreError> {
         let row: Option<LiveSession> = sqlx::query_as(
             "SELECT t.id AS token_id, t.role FROM sessions s JOIN tokens t ON t.id = s.token_id
-             WHERE s.hash = ? AND s.expires_at > ? AND t.revoked_at IS NULL",
+             WHERE s.hash = $1 AND s.expires_at > $2 AND t.revoked_at IS NULL",
         )
         .bind(hash)
         .bind(now_ms())
@@ -58,7 +58,7 @@ impl Store {
 
     /// Ends a session (signing out); false if there was none.
     pub async fn delete_session(&self, hash: &str) -> Result<bool, StoreError> {
-        let r = sqlx::query("DELETE FROM sessions WHERE hash = ?")
+        let r = sqlx::query("DELETE FROM sessions WHERE hash = $1")
             .bind(hash)
             .execute(&self.write)
             .await?;

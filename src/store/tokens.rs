@@ -3,6 +3,7 @@
 use sqlx::FromRow;
 
 use super::db::{now_ms, Store};
+use super::dialect::lock_key;
 use super::error::StoreError;
 use super::kinds::Role;
 
@@ -37,7 +38,7 @@ impl Store {
         label: Option<&str>,
     ) -> Result<(), StoreError> {
         sqlx::query(
-            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES (?, ?, ?, ?, ?)",
+            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES ($1, $2, $3, $4, $5)",
         )
         .bind(id)
         .bind(hash)
@@ -53,6 +54,7 @@ impl Store {
     /// two processes starting together cannot both create one.
     pub async fn insert_first_token(&self, id: &str, hash: &str) -> Result<bool, StoreError> {
         let mut tx = self.begin_write().await?;
+        lock_key(self.backend, &mut tx, "tokens:first").await?;
         let n: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM tokens")
             .fetch_one(&mut *tx)
             .await?;
@@ -60,7 +62,7 @@ impl Store {
             return Ok(false);
         }
         sqlx::query(
-            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES (?, ?, ?, 'first start', ?)",
+            "INSERT INTO tokens (id, hash, role, label, created_at) VALUES ($1, $2, $3, 'first start', $4)",
         )
         .bind(id)
         .bind(hash)
@@ -75,7 +77,7 @@ impl Store {
     /// The id and role of a live token by its hash.
     pub async fn token_role(&self, hash: &str) -> Result<Option<(String, Role)>, StoreError> {
         let row: Option<LiveToken> =
-            sqlx::query_as("SELECT id, role FROM tokens WHERE hash = ? AND revoked_at IS NULL")
+            sqlx::query_as("SELECT id, role FROM tokens WHERE hash = $1 AND revoked_at IS NULL")
                 .bind(hash)
                 .fetch_optional(&self.read)
                 .await?;
@@ -92,7 +94,7 @@ impl Store {
 
     /// Revokes a token; false if no live token has this id.
     pub async fn revoke_token(&self, id: &str) -> Result<bool, StoreError> {
-        let r = sqlx::query("UPDATE tokens SET revoked_at = ? WHERE id = ? AND revoked_at IS NULL")
+        let r = sqlx::query("UPDATE tokens SET revoked_at = $1 WHERE id = $2 AND revoked_at IS NULL")
             .bind(now_ms())
             .bind(id)
             .execute(&self.write)

@@ -11,9 +11,11 @@
 
 use std::collections::{BTreeMap, HashMap};
 
-use sqlx::{FromRow, SqliteConnection};
+use sqlx::{AnyConnection, FromRow};
 
+use super::dialect::{lock_key, unit_key, Backend};
 use super::error::StoreError;
+use super::kinds::OptionalFlag;
 use super::spread::SpreadAccumulator;
 use crate::accept::{judge, Evidence, Product, ProductLimits, Verdict, VerdictStatus};
 use crate::calib::ParameterEstimate;
@@ -25,6 +27,7 @@ struct Judged {
     run_id: String,
     parameters: String,
     param_values: Option<Vec<u8>>,
+    #[sqlx(try_from = "OptionalFlag")]
     model_adequate: Option<bool>,
     poorly_observable: Option<String>,
     cross_check_flagged: Option<String>,
@@ -45,7 +48,7 @@ struct Limits {
 /// unit's own product and verdict up to date. Earlier results only feed the
 /// repeatability.
 pub(super) async fn refresh_unit(
-    conn: &mut SqliteConnection,
+    conn: &mut AnyConnection,
     serial: &str,
     from: Option<(i64, &str)>,
     now: i64,
@@ -54,7 +57,7 @@ pub(super) async fn refresh_unit(
     let mut acc = SpreadAccumulator::default();
     let earlier: Vec<Vec<u8>> = sqlx::query_scalar(
         "SELECT param_values FROM results
-         WHERE unit_serial = ?1 AND param_values IS NOT NULL AND (run_time, run_id) < (?2, ?3)
+         WHERE unit_serial = $1 AND param_values IS NOT NULL AND (run_time, run_id) < ($2, $3)
          ORDER BY run_time, run_id",
     )
     .bind(serial)
@@ -70,7 +73,7 @@ pub(super) async fn refresh_unit(
                 s.cross_check_flagged, r.product, s.verdict_detail, s.verdict_product,
                 s.verdict_revision
          FROM results s JOIN runs r ON r.id = s.run_id
-         WHERE s.unit_serial = ?1 AND (s.run_time, s.run_id) >= (?2, ?3)
+         WHERE s.unit_serial = $1 AND (s.run_time, s.run_id) >= ($2, $3)
          ORDER BY s.run_time, s.run_id",
     )
     .bind(serial)
@@ -119,9 +122,9 @@ pub(super) async fn refresh_unit(
             continue;
         }
         sqlx::query(
-            "UPDATE results SET verdict = ?, verdict_detail = ?, verdict_product = ?,
-                    verdict_revision = ?, verdict_at = ?
-             WHERE run_id = ?",
+            "UPDATE results SET verdict = $1, verdict_detail = $2, verdict_product = $3,
+                    verdict_revision = $4, verdict_at = $5
+             WHERE run_id = $6",
         )
         .bind(verdict.status())
         .bind(&detail)
@@ -138,16 +141,16 @@ pub(super) async fn refresh_unit(
 /// The unit's product (its latest run's) and verdict (its latest calibrated
 /// run's), from the rows they derive from.
 pub(super) async fn refresh_unit_row(
-    conn: &mut SqliteConnection,
+    conn: &mut AnyConnection,
     serial: &str,
 ) -> Result<(), StoreError> {
     sqlx::query(
         "UPDATE units SET
-             product = (SELECT r.product FROM runs r WHERE r.unit_serial = ?1
+             product = (SELECT r.product FROM runs r WHERE r.unit_serial = $1
                         ORDER BY r.run_time DESC, r.id DESC LIMIT 1),
-             verdict = (SELECT s.verdict FROM results s WHERE s.unit_serial = ?1
+             verdict = (SELECT s.verdict FROM results s WHERE s.unit_serial = $1
                         ORDER BY s.run_time DESC, s.run_id DESC LIMIT 1)
-         WHERE serial = ?1",
+         WHERE serial = $1",
     )
     .bind(serial)
     .execute(&mut *conn)
@@ -158,16 +161,18 @@ pub(super) async fn refresh_unit_row(
 /// Judges again every unit with a run naming `product` (its product type
 /// was created, changed or deleted).
 pub(super) async fn refresh_product(
-    conn: &mut SqliteConnection,
+    backend: Backend,
+    conn: &mut AnyConnection,
     product: &str,
     now: i64,
 ) -> Result<(), StoreError> {
     let units: Vec<String> =
-        sqlx::query_scalar("SELECT DISTINCT unit_serial FROM runs WHERE product = ?")
+        sqlx::query_scalar("SELECT DISTINCT unit_serial FROM runs WHERE product = $1")
             .bind(product)
             .fetch_all(&mut *conn)
             .await?;
     for serial in units {
+        lock_key(backend, conn, &unit_key(&serial)).await?;
         refresh_unit(conn, &serial, None, now).await?;
     }
     Ok(())
@@ -175,7 +180,7 @@ pub(super) async fn refresh_product(
 
 /// Judges every result that has no verdict yet (stored before verdicts
 /// existed): their units, whole. A no-op afterwards.
-pub(super) async fn backfill(conn: &mut SqliteConnection, now: i64) -> Result<(), StoreError> {
+pub(super) async fn backfill(conn: &mut AnyConnection, now: i64) -> Result<(), StoreError> {
     let units: Vec<String> =
         sqlx::query_scalar("SELECT DISTINCT unit_serial FROM results WHERE verdict IS NULL")
             .fetch_all(&mut *conn)
@@ -187,11 +192,11 @@ pub(super) async fn backfill(conn: &mut SqliteConnection, now: i64) -> Result<()
 }
 
 async fn product_limits(
-    conn: &mut SqliteConnection,
+    conn: &mut AnyConnection,
     name: &str,
 ) -> Result<Option<Limits>, StoreError> {
     let row: Option<(String, i64)> =
-        sqlx::query_as("SELECT limits, revision FROM product_types WHERE name = ?")
+        sqlx::query_as("SELECT limits, revision FROM product_types WHERE name = $1")
             .bind(name)
             .fetch_optional(&mut *conn)
             .await?;

@@ -61,6 +61,7 @@ pub async fn spawn_app_in(
     tweak: impl FnOnce(&mut Config),
 ) -> TestApp {
     let mut config = test_config(data_dir.path(), workers);
+    config.database_url = test_database_url().await;
     tweak(&mut config);
     let app = Application::build(config).await.expect("build app");
     let admin = app
@@ -88,6 +89,43 @@ pub async fn spawn_app_in(
         stop: Some(stop),
         task: Some(task),
     }
+}
+
+/// The environment variable that moves the suite onto PostgreSQL: the URL
+/// of a server on which the tests may create databases (`.ci/run` starts a
+/// throwaway cluster and sets it).
+pub const POSTGRES_ENV: &str = "SINSCAL_TEST_DATABASE_URL";
+
+/// The database of a test's server: `None` (SQLite in its data folder)
+/// unless [`POSTGRES_ENV`] is set; then a new, empty database on that
+/// server, so every test starts from the migrations as on SQLite. The
+/// databases are left to the throwaway cluster.
+pub async fn test_database_url() -> Option<String> {
+    use sqlx::{Connection, Executor};
+    let admin = std::env::var(POSTGRES_ENV).ok()?;
+    let name = format!("sinscal_test_{}", uuid::Uuid::new_v4().simple());
+    let mut conn = sqlx::PgConnection::connect(&admin)
+        .await
+        .unwrap_or_else(|e| panic!("{POSTGRES_ENV}: cannot connect: {e}"));
+    conn.execute(format!("CREATE DATABASE {name}").as_str())
+        .await
+        .expect("create a test database");
+    let _ = conn.close().await;
+    Some(database_in(&admin, &name))
+}
+
+/// `postgres://u:p@h:port/any?opts` with the database `name`.
+pub fn database_in(url: &str, name: &str) -> String {
+    let (base, query) = match url.split_once('?') {
+        Some((b, q)) => (b, format!("?{q}")),
+        None => (url, String::new()),
+    };
+    let authority_end = base.find("://").map_or(0, |i| i + 3);
+    let root = match base[authority_end..].find('/') {
+        Some(i) => &base[..authority_end + i],
+        None => base,
+    };
+    format!("{root}/{name}{query}")
 }
 
 /// A run's files on disk.
