@@ -5,6 +5,13 @@
 //!    busy, the reads coming from a second process over loopback;
 //! 4. the same reads on a database holding 10 000 calibrated runs.
 //!
+//! 5. (`--scale-out`, alone) on PostgreSQL: one API process that runs no
+//!    job and 1, 2 and 3 `sinscal worker` processes, on a database of
+//!    10 000 calibrated runs: runs/hour, and the reads' p50/p99 while the
+//!    workers are busy. It needs `SINSCAL_BENCH_DATABASE_URL` (a server on
+//!    which it may create a database), e.g. a throwaway cluster:
+//!    `pg_virtualenv sh -c 'SINSCAL_BENCH_DATABASE_URL=postgres://$PGUSER:$PGPASSWORD@$PGHOST:$PGPORT/postgres cargo bench --bench server_load -- --scale-out'`
+//!
 //! The second process is this binary again, started with `load`.
 //! `cargo bench --bench server_load -- --reads-only` runs part 4 alone.
 
@@ -80,7 +87,7 @@ impl Client {
                 .unwrap();
             match j["state"].as_str().unwrap() {
                 "succeeded" => return,
-                "failed" | "cancelled" => panic!("{j}"),
+                "failed" | "dead_letter" | "cancelled" => panic!("{j}"),
                 _ => tokio::time::sleep(Duration::from_millis(20)).await,
             }
         }
@@ -249,6 +256,10 @@ fn main() {
     if args.iter().any(|a| a == "--list") {
         return;
     }
+    if args.iter().any(|a| a == "--scale-out") {
+        rt.block_on(scale_out());
+        return;
+    }
     let reads_only = args.iter().any(|a| a == "--reads-only");
     rt.block_on(async {
         if !reads_only {
@@ -354,4 +365,130 @@ async fn reads_on_a_large_database() {
     println!("reads of one unit holding 10 000 runs (history page of 100; repeatability over all 10 000): {}", String::from_utf8_lossy(&out.stdout).trim());
     let _ = stop.send(());
     task.await.unwrap();
+}
+
+/// A `sinscal serve --workers 0` or `sinscal worker` process of part 5.
+struct Process(std::process::Child);
+
+impl Process {
+    /// Starts `command` on `database_url`; returns it, its address and the
+    /// admin token if this start made one.
+    fn start(command: &str, data: &Path, database_url: &str) -> (Process, String, Option<String>) {
+        use std::io::BufRead;
+        let workers = if command == "serve" { "0" } else { "1" };
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_sinscal"))
+            .args([command, "--bind", "127.0.0.1:0", "--workers", workers])
+            .arg("--data-dir")
+            .arg(data)
+            .args(["--database-url", database_url])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let mut lines = std::io::BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut token = None;
+        loop {
+            let line = lines
+                .next()
+                .expect("the process printed its address")
+                .unwrap();
+            if let Some(t) = line.strip_prefix("admin token (shown once, store it now): ") {
+                token = Some(t.to_string());
+            }
+            if let Some((_, addr)) = line.split_once(" listening on ") {
+                return (Process(child), addr.to_string(), token);
+            }
+        }
+    }
+
+    fn stop(mut self) {
+        // SAFETY: signalling our own child by its pid.
+        unsafe { libc::kill(self.0.id() as i32, libc::SIGTERM) };
+        let _ = self.0.wait();
+    }
+}
+
+/// Part 5: the same server split into processes on PostgreSQL.
+async fn scale_out() {
+    use sqlx::{Connection, Executor};
+    let admin = std::env::var("SINSCAL_BENCH_DATABASE_URL")
+        .expect("--scale-out needs SINSCAL_BENCH_DATABASE_URL (see the head of this file)");
+    let name = format!("sinscal_bench_{}", uuid::Uuid::new_v4().simple());
+    let mut conn = sqlx::PgConnection::connect(&admin).await.unwrap();
+    conn.execute(format!("CREATE DATABASE {name}").as_str())
+        .await
+        .unwrap();
+    let _ = conn.close().await;
+    let (root, _) = admin.rsplit_once('/').unwrap();
+    let url = format!("{root}/{name}");
+
+    let work = tempfile::tempdir().unwrap();
+    eprintln!("simulating the 3.2 h run (f64le)…");
+    let bin = write_simulated_run(
+        &sim(1),
+        &work.path().join("bin"),
+        DataFormat::F64le,
+        false,
+        "B-BIN",
+    )
+    .unwrap();
+    let meta_bin = std::fs::read(&bin.metadata).unwrap();
+    let data = tempfile::tempdir().unwrap();
+    let (api, addr, token) = Process::start("serve", data.path(), &url);
+    let c = Client {
+        http: reqwest::Client::new(),
+        base: format!("{addr}/api/v1"),
+        token: token.expect("a fresh database makes an admin token"),
+    };
+    let store = Store::connect(&sinscal::store::DatabaseUrl::Postgres(url.clone()), 2)
+        .await
+        .unwrap();
+    let t = Instant::now();
+    seed(&store, 100, 100, "DB").await;
+    eprintln!(
+        "seeded 10 000 runs on PostgreSQL in {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+    store.close().await;
+    let serials: Vec<String> = (0..100).map(|u| format!("DB-{u:04}")).collect();
+    let idle = run_load_process(&c, &serials, 5.0)
+        .wait_with_output()
+        .unwrap();
+    println!(
+        "PostgreSQL, reads on 10 000 runs, no worker running (4 clients, second process): {}",
+        String::from_utf8_lossy(&idle.stdout).trim()
+    );
+    let n = 8;
+    for workers in 1..=3 {
+        let processes: Vec<Process> = (0..workers)
+            .map(|_| Process::start("worker", data.path(), &url).0)
+            .collect();
+        let t = Instant::now();
+        let mut jobs = Vec::new();
+        for k in 0..n {
+            jobs.push(
+                c.upload(&format!("THR{workers}-{k}"), &meta_bin, &bin.data)
+                    .await,
+            );
+        }
+        let loader = run_load_process(&c, &serials, 8.0);
+        for j in &jobs {
+            c.wait(j["job_id"].as_str().unwrap()).await;
+        }
+        let hours = t.elapsed().as_secs_f64() / 3600.0;
+        println!(
+            "PostgreSQL, {workers} worker process(es): {n} runs (3.2 h, f64le) in {:.1} s = {:.0} runs/hour",
+            hours * 3600.0,
+            n as f64 / hours
+        );
+        let out = loader.wait_with_output().unwrap();
+        println!(
+            "  reads on 10 000 runs meanwhile (4 clients, second process): {}",
+            String::from_utf8_lossy(&out.stdout).trim()
+        );
+        for p in processes {
+            p.stop();
+        }
+    }
+    api.stop();
 }

@@ -26,6 +26,7 @@ use std::fs::File;
 use std::io;
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, SystemTime};
 
 /// The folder of run files, relative to the data folder.
 const RUNS: &str = "runs";
@@ -169,14 +170,27 @@ impl RunFiles {
 
     /// Removes what a crash can leave behind: every file in `runs/tmp`, and
     /// every run file whose blob path is not in `known` (the paths the
-    /// database's rows name). Run it before uploads are accepted, so that
-    /// nothing in flight is touched.
-    pub fn sweep(&self, known: &HashSet<String>) -> io::Result<Swept> {
+    /// database's rows name), if last written more than `grace` ago.
+    ///
+    /// A server alone on its data folder runs it before uploads are
+    /// accepted, with no grace: nothing is in flight. Where other
+    /// processes share the folder and the database, one of them may be
+    /// between writing a run's file and committing its row (or still
+    /// receiving a body): the grace leaves their files alone.
+    pub fn sweep(&self, known: &HashSet<String>, grace: Duration) -> io::Result<Swept> {
         let known: HashSet<PathBuf> = known.iter().map(|p| self.path(p)).collect();
         let runs = self.runs_dir();
+        let now = SystemTime::now();
+        let old_enough = |path: &Path| {
+            grace.is_zero()
+                || std::fs::metadata(path)
+                    .and_then(|m| m.modified())
+                    .is_ok_and(|t| now.duration_since(t).unwrap_or_default() > grace)
+        };
         let mut swept = Swept::default();
         for entry in std::fs::read_dir(self.tmp_dir())? {
-            if std::fs::remove_file(entry?.path()).is_ok() {
+            let path = entry?.path();
+            if old_enough(&path) && std::fs::remove_file(&path).is_ok() {
                 swept.partial += 1;
             }
         }
@@ -187,7 +201,10 @@ impl RunFiles {
             }
             for file in std::fs::read_dir(&shard)? {
                 let file = file?.path();
-                if !known.contains(&file) && std::fs::remove_file(&file).is_ok() {
+                if !known.contains(&file)
+                    && old_enough(&file)
+                    && std::fs::remove_file(&file).is_ok()
+                {
                     swept.orphans += 1;
                 }
             }
@@ -259,7 +276,10 @@ mod tests {
         assert_eq!(tmp_count(&files), 0);
 
         let known = HashSet::from([blob.clone()]);
-        assert_eq!(files.sweep(&known).unwrap(), Swept::default());
+        assert_eq!(
+            files.sweep(&known, Duration::ZERO).unwrap(),
+            Swept::default()
+        );
         assert!(files.path(&blob).is_file());
 
         files.remove(&blob).unwrap();
@@ -300,7 +320,9 @@ mod tests {
         kept.keep();
         assert_eq!(tmp_count(&files), 1);
 
-        let swept = files.sweep(&HashSet::from([kept_blob.clone()])).unwrap();
+        let swept = files
+            .sweep(&HashSet::from([kept_blob.clone()]), Duration::ZERO)
+            .unwrap();
         assert_eq!(
             swept,
             Swept {
@@ -313,7 +335,30 @@ mod tests {
         assert!(files.path(&kept_blob).is_file());
         // A second sweep finds nothing.
         let known = HashSet::from([kept_blob]);
-        assert_eq!(files.sweep(&known).unwrap(), Swept::default());
+        assert_eq!(
+            files.sweep(&known, Duration::ZERO).unwrap(),
+            Swept::default()
+        );
+    }
+
+    /// With a grace period (other processes share the folder), what was
+    /// written within it stays: it may be an upload still in flight, or a
+    /// run whose row is about to commit.
+    #[test]
+    fn the_sweep_leaves_files_younger_than_its_grace() {
+        let (_dir, files) = files();
+        let partial = written(&files, b"still arriving");
+        let orphan = written(&files, b"row about to commit");
+        let blob = RunFiles::blob_path("ab12-fresh", "csv");
+        let orphan = orphan.commit(&files, &blob).unwrap();
+        let grace = Duration::from_secs(600);
+        assert_eq!(
+            files.sweep(&HashSet::new(), grace).unwrap(),
+            Swept::default()
+        );
+        assert!(files.path(&blob).is_file());
+        assert_eq!(tmp_count(&files), 1);
+        drop((partial, orphan));
     }
 
     #[test]

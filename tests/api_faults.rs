@@ -223,12 +223,16 @@ async fn a_real_full_disk_refuses_uploads_and_recovers_by_itself() {
             .to_string();
         line.rsplit(' ').next().unwrap().parse::<u64>().unwrap()
     };
-    let start = Instant::now();
-    while retries().await == 0 {
-        assert!(start.elapsed() < Duration::from_secs(120), "no retry seen");
-        tokio::time::sleep(Duration::from_millis(20)).await;
+    // Only where the database lives on the full disk (SQLite in the data
+    // folder): on PostgreSQL the result's rows do not meet it.
+    if app.store.backend() == sinscal::store::Backend::Sqlite {
+        let start = Instant::now();
+        while retries().await == 0 {
+            assert!(start.elapsed() < Duration::from_secs(120), "no retry seen");
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        assert_eq!(app.get_job(&job_a).await["state"], "running");
     }
-    assert_eq!(app.get_job(&job_a).await["state"], "running");
 
     std::fs::remove_file(&ballast).unwrap();
     assert_succeeds(step, &job_a).await;
@@ -603,7 +607,7 @@ async fn oversized_heads_and_bad_token_roles_answer_problem_json() {
 fn token_create_refuses_a_data_dir_without_a_database() {
     let dir = tempfile::tempdir().unwrap();
     let typo = dir.path().join("sinscal-dta");
-    let e = sinscal::server::create_token(&typo, sinscal::store::Role::Station, None)
+    let e = sinscal::server::create_token(&typo, None, sinscal::store::Role::Station, None)
         .expect_err("no database there");
     assert!(e.to_string().contains("no database"), "{e}");
     assert!(!typo.exists(), "nothing is created");

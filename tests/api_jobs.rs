@@ -83,9 +83,12 @@ async fn failed_attempts_retry_up_to_the_limit_and_keep_their_error() {
             Outcome::Empty => panic!("the job should be claimable again (zero backoff)"),
         }
     }
-    assert_eq!(ends, [JobEnd::Retrying, JobEnd::Retrying, JobEnd::Failed]);
+    assert_eq!(
+        ends,
+        [JobEnd::Retrying, JobEnd::Retrying, JobEnd::DeadLettered]
+    );
     let job = app.get_job(&job_id).await;
-    assert_eq!(job["state"], "failed");
+    assert_eq!(job["state"], "dead_letter");
     assert_eq!(job["attempts"], 3);
     assert!(
         job["error"].as_str().unwrap().contains("cannot open"),

@@ -119,7 +119,7 @@ async fn wait_final(
         let job = get_json(http, token, &format!("{base}/jobs/{job_id}")).await;
         if matches!(
             job["state"].as_str(),
-            Some("succeeded" | "failed" | "cancelled")
+            Some("succeeded" | "failed" | "dead_letter" | "cancelled")
         ) {
             return job;
         }

@@ -50,7 +50,7 @@ CREATE TABLE jobs (
     id               TEXT PRIMARY KEY,
     run_id           TEXT NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
     kind             TEXT NOT NULL DEFAULT 'calibrate' CHECK (kind IN ('calibrate', 'diagnose')),
-    state            TEXT NOT NULL CHECK (state IN ('queued', 'running', 'succeeded', 'failed', 'cancelled')),
+    state            TEXT NOT NULL CHECK (state IN ('queued', 'running', 'succeeded', 'failed', 'dead_letter', 'cancelled')),
     attempts         BIGINT NOT NULL DEFAULT 0,   -- also the fencing token of the current lease
     max_attempts     BIGINT NOT NULL,
     lease_owner      TEXT,

@@ -17,7 +17,7 @@ pub struct JobView {
     pub run_id: String,
     /// calibrate or diagnose.
     pub kind: JobKind,
-    /// queued, running, succeeded, failed or cancelled.
+    /// queued, running, succeeded, failed, dead_letter or cancelled.
     pub state: JobState,
     /// 0 … 100.
     pub progress_percent: f64,

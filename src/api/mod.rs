@@ -115,7 +115,9 @@ pub fn operations_router(state: AppState) -> Router {
     Router::new()
         .nest("/api/v1", operations())
         .merge(operations())
-        .fallback(|| async { ApiError::NotFound("a worker serves only /healthz, /readyz and /metrics".into()) })
+        .fallback(|| async {
+            ApiError::NotFound("a worker serves only /healthz, /readyz and /metrics".into())
+        })
         .layer(axum::middleware::map_response(ensure_problem))
         .layer(tower::limit::GlobalConcurrencyLimitLayer::new(
             state.config.max_concurrent_requests,

@@ -40,6 +40,9 @@ pub enum JobEnd {
     Retrying,
     /// Failed for good.
     Failed,
+    /// Failed on its last allowed attempt with an error worth retrying:
+    /// set aside in the dead-letter state.
+    DeadLettered,
     Cancelled,
     /// Stopped at shutdown and returned to the queue, attempt not counted.
     HandedBack,
@@ -171,7 +174,7 @@ impl JobRunner {
         let seconds = started.elapsed().as_secs_f64();
         match end {
             JobEnd::Succeeded => self.metrics.job_finished(JobOutcome::Succeeded, seconds),
-            JobEnd::Failed | JobEnd::Retrying => {
+            JobEnd::Failed | JobEnd::Retrying | JobEnd::DeadLettered => {
                 self.metrics.job_finished(JobOutcome::Failed, seconds)
             }
             JobEnd::Cancelled => self.metrics.job_finished(JobOutcome::Cancelled, seconds),
@@ -362,6 +365,7 @@ impl JobRunner {
                 .await?
             {
                 Some(JobState::Queued) => JobEnd::Retrying,
+                Some(JobState::DeadLetter) => JobEnd::DeadLettered,
                 Some(_) => JobEnd::Failed,
                 None => JobEnd::LeaseLost,
             },

@@ -19,7 +19,7 @@ use crate::config::{database_path, Config, ConfigError, ServeArgs};
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
 use crate::metrics::Metrics;
 use crate::runfiles::{RunFiles, Swept};
-use crate::store::{DatabaseUrl, OnInadequate, Role, Store, StoreError};
+use crate::store::{Backend, DatabaseUrl, OnInadequate, Role, Store, StoreError};
 
 /// Errors starting or running the server.
 #[derive(Debug, thiserror::Error)]
@@ -62,11 +62,23 @@ async fn open_store(config: &Config, readers: u32) -> Result<Store, ServerError>
     Ok(Store::connect(&url, readers).await?)
 }
 
-/// Removes what a crash can leave behind (see [`RunFiles::sweep`]).
+/// How old an unreferenced run file must be before a process sharing its
+/// database with others removes it: far longer than any upload takes from
+/// its file's last write to its row's commit.
+const SHARED_SWEEP_GRACE: Duration = Duration::from_secs(15 * 60);
+
+/// Removes what a crash can leave behind (see [`RunFiles::sweep`]): at
+/// once on SQLite, where this process is alone on its data folder; after
+/// [`SHARED_SWEEP_GRACE`] on PostgreSQL, where other processes may be in
+/// the middle of an upload.
 async fn sweep_orphans(store: &Store, data_dir: &Path) -> Result<Swept, ServerError> {
     let known = store.all_blob_paths().await?.into_iter().collect();
+    let grace = match store.backend() {
+        Backend::Sqlite => Duration::ZERO,
+        Backend::Postgres => SHARED_SWEEP_GRACE,
+    };
     RunFiles::new(data_dir)
-        .sweep(&known)
+        .sweep(&known, grace)
         .map_err(io_err("sweeping the run files"))
 }
 

@@ -21,7 +21,7 @@ use std::time::Duration;
 
 use sqlx::any::{AnyConnectOptions, AnyPoolOptions};
 use sqlx::sqlite::SqliteConnectOptions;
-use sqlx::{AnyPool, ConnectOptions, Executor, Row};
+use sqlx::{AnyPool, ConnectOptions, Connection, Executor, Row};
 
 use super::dialect::Backend;
 use super::error::StoreError;
@@ -203,6 +203,13 @@ impl Store {
             }
             DatabaseUrl::Postgres(u) => {
                 let options = u.parse::<AnyConnectOptions>()?;
+                // One connection first: a pool that cannot connect reports
+                // only that it timed out, this reports why (refused,
+                // password, no such database).
+                let probe = sqlx::AnyConnection::connect_with(&options)
+                    .await
+                    .map_err(unreachable)?;
+                let _ = probe.close().await;
                 let pool = |max: u32| {
                     AnyPoolOptions::new()
                         .max_connections(max)

@@ -66,7 +66,7 @@ impl Backend {
     }
 }
 
-    /// Holds `key` (a unit, a product type) until the transaction ends,
+/// Holds `key` (a unit, a product type) until the transaction ends,
 /// for a read-modify-write that must not interleave with another on the
 /// same key. On SQLite every write transaction already holds the one
 /// write lock, so nothing is taken; on PostgreSQL, a transaction-scoped
@@ -102,4 +102,3 @@ pub(super) async fn hint_job_queued(
     }
     Ok(())
 }
-

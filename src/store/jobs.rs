@@ -59,7 +59,9 @@ pub(super) fn by_state_name(rows: Vec<StateCount>) -> BTreeMap<String, i64> {
 }
 
 /// Jobs waiting for a worker, on either pool or inside a transaction.
-pub(super) async fn count_queued<'e>(e: impl sqlx::Executor<'e, Database = sqlx::Any>) -> Result<i64, StoreError> {
+pub(super) async fn count_queued<'e>(
+    e: impl sqlx::Executor<'e, Database = sqlx::Any>,
+) -> Result<i64, StoreError> {
     Ok(
         sqlx::query_scalar("SELECT COUNT(*) FROM jobs WHERE state = 'queued'")
             .fetch_one(e)

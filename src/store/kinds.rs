@@ -13,9 +13,9 @@
 use std::fmt;
 use std::str::FromStr;
 
+use sqlx::any::{Any, AnyTypeInfo, AnyTypeInfoKind, AnyValueRef};
 use sqlx::encode::IsNull;
 use sqlx::error::BoxDynError;
-use sqlx::any::{Any, AnyTypeInfo, AnyTypeInfoKind, AnyValueRef};
 use sqlx::ValueRef as _;
 
 use crate::accept::VerdictStatus;
@@ -75,17 +75,23 @@ pub enum JobState {
     /// Held by a worker's lease.
     Running,
     Succeeded,
-    /// Failed for good (no attempts left, or a failure retrying cannot fix).
+    /// Failed for good: a failure retrying cannot fix (the run's data).
     Failed,
+    /// The dead-letter state: every allowed attempt failed with an error
+    /// worth retrying (I/O, a lost worker). Set aside for an operator, who
+    /// can queue it again (`POST /runs/{id}/calibrate`).
+    #[serde(rename = "dead_letter")]
+    DeadLetter,
     Cancelled,
 }
 
 impl JobState {
-    pub const ALL: [JobState; 5] = [
+    pub const ALL: [JobState; 6] = [
         JobState::Queued,
         JobState::Running,
         JobState::Succeeded,
         JobState::Failed,
+        JobState::DeadLetter,
         JobState::Cancelled,
     ];
 
@@ -95,14 +101,18 @@ impl JobState {
             JobState::Running => "running",
             JobState::Succeeded => "succeeded",
             JobState::Failed => "failed",
+            JobState::DeadLetter => "dead_letter",
             JobState::Cancelled => "cancelled",
         }
     }
 
-    /// Succeeded or failed: nothing can change it any more (a cancelled
-    /// job can still be "cancelled" again, as a no-op).
+    /// Succeeded, failed or dead-lettered: no worker will touch it again
+    /// (a cancelled job can still be "cancelled" again, as a no-op).
     pub fn is_settled(self) -> bool {
-        matches!(self, JobState::Succeeded | JobState::Failed)
+        matches!(
+            self,
+            JobState::Succeeded | JobState::Failed | JobState::DeadLetter
+        )
     }
 }
 

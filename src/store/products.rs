@@ -86,7 +86,8 @@ impl Store {
         if created.rows_affected() == 0 {
             return Ok(None);
         }
-        let row = record_revision(self.backend, &mut tx, &change, Some(&limits), revision, now).await?;
+        let row =
+            record_revision(self.backend, &mut tx, &change, Some(&limits), revision, now).await?;
         tx.commit().await?;
         Ok(row)
     }
@@ -117,7 +118,8 @@ impl Store {
         if updated.rows_affected() == 0 {
             return Ok(None);
         }
-        let row = record_revision(self.backend, &mut tx, &change, Some(&limits), revision, now).await?;
+        let row =
+            record_revision(self.backend, &mut tx, &change, Some(&limits), revision, now).await?;
         tx.commit().await?;
         Ok(row)
     }

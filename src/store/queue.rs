@@ -67,10 +67,7 @@ impl Fenced {
         ))
     }
 
-    fn query<'q>(
-        &'q self,
-        fence: &'q Fence,
-    ) -> sqlx::query::Query<'q, Any, AnyArguments<'q>> {
+    fn query<'q>(&'q self, fence: &'q Fence) -> sqlx::query::Query<'q, Any, AnyArguments<'q>> {
         sqlx::query(&self.0)
             .bind(&fence.job_id)
             .bind(fence.attempt)
@@ -122,8 +119,8 @@ impl Store {
 
     /// Claims the oldest claimable job for `owner`: a queued job whose
     /// backoff has passed, or a running job whose lease expired (its worker
-    /// died). Expired jobs that were asked to cancel, or that used their
-    /// last attempt, are closed instead of claimed.
+    /// died). Expired jobs that were asked to cancel are closed, and those
+    /// that used their last attempt dead-lettered, instead of claimed.
     pub async fn claim_job(
         &self,
         owner: &str,
@@ -139,7 +136,7 @@ impl Store {
         .execute(&mut *tx)
         .await?;
         sqlx::query(
-            "UPDATE jobs SET state = 'failed', finished_at = $1, lease_owner = NULL, lease_expires_at = NULL,
+            "UPDATE jobs SET state = 'dead_letter', finished_at = $1, lease_owner = NULL, lease_expires_at = NULL,
                     error = 'the worker was lost (lease expired) on the last allowed attempt'
              WHERE state = 'running' AND lease_expires_at < $1 AND attempts >= max_attempts",
         )
@@ -158,11 +155,11 @@ impl Store {
             self.backend.skip_locked()
         );
         let claimed: Option<Claimed> = sqlx::query_as(&claim_sql)
-        .bind(owner)
-        .bind(now + lease.as_millis() as i64)
-        .bind(now)
-        .fetch_optional(&mut *tx)
-        .await?;
+            .bind(owner)
+            .bind(now + lease.as_millis() as i64)
+            .bind(now)
+            .fetch_optional(&mut *tx)
+            .await?;
         let Some(c) = claimed else {
             tx.commit().await?;
             return Ok(None);
@@ -305,8 +302,9 @@ impl Store {
     }
 
     /// Records a failed attempt: back to the queue after `backoff` while
-    /// attempts remain and `retry` holds, else failed for good. The error is
-    /// kept either way. Returns the new state, `None` if the lease was lost.
+    /// attempts remain and `retry` holds; dead-lettered when `retry` holds
+    /// but the attempts are spent; else failed for good. The error is kept
+    /// in every case. Returns the new state, `None` if the lease was lost.
     pub async fn fail_job(
         &self,
         fence: &Fence,
@@ -316,7 +314,8 @@ impl Store {
     ) -> Result<Option<JobState>, StoreError> {
         let now = now_ms();
         let sql = Fenced::update_returning(
-            "state = CASE WHEN $4 AND attempts < max_attempts THEN 'queued' ELSE 'failed' END,
+            "state = CASE WHEN $4 AND attempts < max_attempts THEN 'queued'
+                          WHEN $4 THEN 'dead_letter' ELSE 'failed' END,
                 finished_at = CASE WHEN $4 AND attempts < max_attempts THEN NULL ELSE $5 END,
                 run_after = $6, error = $7, stage = 'failed attempt',
                 lease_owner = NULL, lease_expires_at = NULL",
@@ -422,15 +421,15 @@ mod tests {
         );
         // The second attempt is the last: a retryable failure fails for good.
         let failed = store.fail_job(&new.fence, "e", true, Duration::ZERO);
-        assert_eq!(failed.await.unwrap(), Some(JobState::Failed));
+        assert_eq!(failed.await.unwrap(), Some(JobState::DeadLetter));
         let row = store.get_job(&job).await.unwrap().unwrap();
         assert_eq!(
             (row.kind, row.state),
-            (JobKind::Calibrate, JobState::Failed)
+            (JobKind::Calibrate, JobState::DeadLetter)
         );
         assert_eq!(row.error.as_deref(), Some("e"));
         let counts = store.job_counts().await.unwrap();
-        assert_eq!(counts["failed"], 1);
+        assert_eq!(counts["dead_letter"], 1);
         assert_eq!(counts.len(), JobState::ALL.len());
     }
 

@@ -297,15 +297,16 @@ impl Store {
         since: i64,
         last: Option<i64>,
     ) -> Result<Vec<ParamSpread>, StoreError> {
-        // Newest first so that LIMIT keeps the `last` most recent (a
-        // negative LIMIT is none in SQLite), then back to time order.
+        // Newest first so that LIMIT keeps the `last` most recent (all of
+        // them: the largest LIMIT both engines take), then back to time
+        // order.
         let mut blobs: Vec<Vec<u8>> = sqlx::query_scalar(
             "SELECT param_values FROM results WHERE unit_serial = $1 AND run_time >= $2
              ORDER BY run_time DESC, run_id DESC LIMIT $3",
         )
         .bind(serial)
         .bind(since)
-        .bind(last.unwrap_or(-1))
+        .bind(last.unwrap_or(i64::MAX))
         .fetch_all(&self.read)
         .await?;
         blobs.reverse();

@@ -94,11 +94,12 @@ impl Store {
 
     /// Revokes a token; false if no live token has this id.
     pub async fn revoke_token(&self, id: &str) -> Result<bool, StoreError> {
-        let r = sqlx::query("UPDATE tokens SET revoked_at = $1 WHERE id = $2 AND revoked_at IS NULL")
-            .bind(now_ms())
-            .bind(id)
-            .execute(&self.write)
-            .await?;
+        let r =
+            sqlx::query("UPDATE tokens SET revoked_at = $1 WHERE id = $2 AND revoked_at IS NULL")
+                .bind(now_ms())
+                .bind(id)
+                .execute(&self.write)
+                .await?;
         Ok(r.rows_affected() == 1)
     }
 }

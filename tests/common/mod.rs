@@ -22,6 +22,7 @@ use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::Store;
 
 pub mod pages;
+pub mod postgres;
 
 pub struct TestApp {
     pub base: String,
@@ -383,7 +384,7 @@ impl TestApp {
         loop {
             let job = self.get_job(id).await;
             let state = job["state"].as_str().unwrap();
-            if matches!(state, "succeeded" | "failed" | "cancelled") {
+            if matches!(state, "succeeded" | "failed" | "dead_letter" | "cancelled") {
                 return job;
             }
             assert!(

@@ -1,0 +1,66 @@
+//! A PostgreSQL server for the tests that need one whatever the suite's
+//! engine (several processes sharing one database): the server
+//! `SINSCAL_TEST_DATABASE_URL` names, else a throwaway cluster of this
+//! test binary's own, made by `pg_virtualenv` (PostgreSQL's packages) and
+//! dropped when the binary exits.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Command, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use super::{database_in, POSTGRES_ENV};
+
+/// The admin URL of a PostgreSQL server the test may create databases on.
+pub fn admin_url() -> String {
+    static URL: OnceLock<String> = OnceLock::new();
+    URL.get_or_init(|| std::env::var(POSTGRES_ENV).unwrap_or_else(|_| private_cluster()))
+        .clone()
+}
+
+/// A new, empty database; its URL.
+pub async fn fresh_database(prefix: &str) -> String {
+    use sqlx::{Connection, Executor};
+    let admin = admin_url();
+    let name = format!("{prefix}_{}", uuid::Uuid::new_v4().simple());
+    let mut conn = sqlx::PgConnection::connect(&admin)
+        .await
+        .unwrap_or_else(|e| panic!("PostgreSQL at {admin}: {e}"));
+    conn.execute(format!("CREATE DATABASE {name}").as_str())
+        .await
+        .unwrap();
+    let _ = conn.close().await;
+    database_in(&admin, &name)
+}
+
+/// Starts `pg_virtualenv` holding a cluster open until this process exits
+/// (its shell polls our pid), and reads the connection settings it
+/// exports.
+fn private_cluster() -> String {
+    let me = std::process::id();
+    let script = format!(
+        "printf 'postgres://%s:%s@%s:%s/postgres\\n' \"$PGUSER\" \"$PGPASSWORD\" \"$PGHOST\" \"$PGPORT\"; \
+         while kill -0 {me} 2>/dev/null; do sleep 1; done"
+    );
+    let mut child = Command::new("pg_virtualenv")
+        .args(["sh", "-c", &script])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap_or_else(|e| {
+            panic!(
+                "this test needs PostgreSQL: set {POSTGRES_ENV} to a server's URL, or install \
+                 PostgreSQL's packages (pg_virtualenv, from postgresql-common): {e}"
+            )
+        });
+    let started = Instant::now();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let url = lines
+        .next()
+        .and_then(|l| l.ok())
+        .unwrap_or_else(|| panic!("pg_virtualenv started no cluster"));
+    assert!(started.elapsed() < Duration::from_secs(120));
+    // The child outlives this function on purpose: it ends with us.
+    std::mem::forget(child);
+    url
+}

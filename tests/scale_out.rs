@@ -1,0 +1,416 @@
+//! Scale-out on PostgreSQL: API servers that run no jobs (`serve
+//! --workers 0`) and workers that answer no client (`sinscal worker`), all
+//! separate processes sharing one database and one run store. Uploads
+//! arrive from concurrent clients while random processes are killed with
+//! SIGKILL and restarted; afterwards every acknowledged run is calibrated
+//! exactly once, to the result of calibrating its file directly, every run
+//! row has its file, and no job ran to completion twice.
+
+mod common;
+
+use std::collections::{BTreeMap, HashMap};
+use std::io::{BufRead, BufReader};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use common::*;
+use rand::{Rng, SeedableRng};
+use serde_json::Value;
+use sinscal::io::data::DataFormat;
+
+/// What a process of the deployment is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    Api,
+    Worker,
+}
+
+/// One process of the deployment and how to start it again.
+struct Process {
+    kind: Kind,
+    child: Child,
+    /// `http://host:port`.
+    addr: String,
+}
+
+/// The settings every process of the deployment shares.
+#[derive(Clone)]
+struct Deployment {
+    data_dir: PathBuf,
+    database_url: String,
+    logs: PathBuf,
+}
+
+impl Deployment {
+    /// Starts a process; returns it with the admin token if this start
+    /// created the first one.
+    #[allow(clippy::zombie_processes)]
+    fn start(&self, kind: Kind, index: usize) -> (Process, Option<String>) {
+        let (command, workers) = match kind {
+            Kind::Api => ("serve", "0"),
+            Kind::Worker => ("worker", "1"),
+        };
+        let log = self.logs.join(format!("{command}-{index}.log"));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_sinscal"))
+            .args([command, "--bind", "127.0.0.1:0", "--workers", workers])
+            .args(["--lease-secs", "1", "--max-attempts", "50"])
+            .arg("--data-dir")
+            .arg(&self.data_dir)
+            .args(["--database-url", &self.database_url])
+            .env("RUST_LOG", "info,sqlx=warn")
+            .stdout(Stdio::piped())
+            .stderr(
+                std::fs::OpenOptions::new()
+                    .create(true)
+                    .append(true)
+                    .open(&log)
+                    .unwrap(),
+            )
+            .spawn()
+            .expect("start sinscal");
+        let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+        let mut token = None;
+        loop {
+            let line = lines
+                .next()
+                .unwrap_or_else(|| panic!("{command} {index} exited; see {}", log.display()))
+                .unwrap();
+            if let Some(t) = line.strip_prefix("admin token (shown once, store it now): ") {
+                token = Some(t.to_string());
+            }
+            if let Some((_, addr)) = line.split_once(" listening on ") {
+                let addr = addr.to_string();
+                return (Process { kind, child, addr }, token);
+            }
+        }
+    }
+}
+
+impl Process {
+    fn sigkill(&mut self) {
+        self.child.kill().unwrap();
+        self.child.wait().unwrap();
+    }
+
+    fn sigterm(mut self) {
+        // SAFETY: signalling our own child by its pid.
+        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
+        let status = self.child.wait().unwrap();
+        assert!(status.success(), "{:?} exited with {status}", self.kind);
+    }
+}
+
+async fn upload(
+    http: &reqwest::Client,
+    addr: &str,
+    token: &str,
+    meta: &[u8],
+    body: Vec<u8>,
+) -> reqwest::Result<reqwest::Response> {
+    let form = reqwest::multipart::Form::new()
+        .part("metadata", reqwest::multipart::Part::bytes(meta.to_vec()))
+        .part("data", reqwest::multipart::Part::bytes(body));
+    http.post(format!("{addr}/api/v1/units/RLG-0042/runs"))
+        .bearer_auth(token)
+        .multipart(form)
+        .timeout(Duration::from_secs(60))
+        .send()
+        .await
+}
+
+/// An acknowledged upload.
+#[derive(Clone, Debug)]
+struct Acked {
+    run_id: String,
+    job_id: String,
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_servers_three_workers_ten_sigkills_every_run_calibrated_once() {
+    const UPLOADS: usize = 50;
+    const CLIENTS: usize = 8;
+    const KILLS: usize = 10;
+    let data = tempfile::tempdir().unwrap();
+    let logs = tempfile::tempdir().unwrap();
+    let deployment = Deployment {
+        data_dir: data.path().to_path_buf(),
+        database_url: postgres::fresh_database("sinscal_scale").await,
+        logs: logs.path().to_path_buf(),
+    };
+    // The first API server migrates the database and makes the token.
+    let (api0, token) = deployment.start(Kind::Api, 0);
+    let token = token.expect("first start makes an admin token");
+    let mut processes = vec![api0];
+    processes.push(deployment.start(Kind::Api, 1).0);
+    for w in 0..3 {
+        processes.push(deployment.start(Kind::Worker, w).0);
+    }
+    let apis: Arc<Mutex<Vec<String>>> = Arc::new(Mutex::new(
+        processes
+            .iter()
+            .filter(|p| p.kind == Kind::Api)
+            .map(|p| p.addr.clone())
+            .collect(),
+    ));
+
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 21, DataFormat::Csv, "RLG-0042");
+    let csv = std::fs::read(&run.data).unwrap();
+    let http = reqwest::Client::new();
+    let next = Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let acked: Arc<Mutex<Vec<Acked>>> = Arc::default();
+    let mut clients = Vec::new();
+    for c in 0..CLIENTS {
+        let (http, token, apis, next, acked) = (
+            http.clone(),
+            token.clone(),
+            apis.clone(),
+            next.clone(),
+            acked.clone(),
+        );
+        let (csv, meta) = (csv.clone(), run.metadata.clone());
+        clients.push(tokio::spawn(async move {
+            let mut tries = 0usize;
+            loop {
+                let k = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                if k >= UPLOADS {
+                    return tries;
+                }
+                // A comment makes every upload's bytes distinct.
+                let mut body = format!("# upload {k}\n").into_bytes();
+                body.extend_from_slice(&csv);
+                // Until acknowledged: a killed server's upload is sent again
+                // (to either server); the same bytes are one run.
+                for attempt in 0.. {
+                    tries += 1;
+                    let addr = {
+                        let apis = apis.lock().unwrap();
+                        apis[(c + attempt) % apis.len()].clone()
+                    };
+                    match upload(&http, &addr, &token, &meta, body.clone()).await {
+                        Ok(r) if r.status() == 202 || r.status() == 200 => {
+                            let v: Value = r.json().await.unwrap();
+                            acked.lock().unwrap().push(Acked {
+                                run_id: v["run_id"].as_str().unwrap().into(),
+                                job_id: v["job_id"].as_str().unwrap().into(),
+                            });
+                            break;
+                        }
+                        Ok(r) if r.status() == 503 => {}
+                        Ok(r) => panic!("upload answered {}: {:?}", r.status(), r.text().await),
+                        Err(_) => {}
+                    }
+                    tokio::time::sleep(Duration::from_millis(200)).await;
+                }
+            }
+        }));
+    }
+
+    // SIGKILLs at random moments on random processes, each restarted.
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+    let mut killed = BTreeMap::<&str, usize>::new();
+    for _ in 0..KILLS {
+        tokio::time::sleep(Duration::from_millis(rng.gen_range(500..2500))).await;
+        let i = rng.gen_range(0..processes.len());
+        let kind = processes[i].kind;
+        processes[i].sigkill();
+        *killed
+            .entry(if kind == Kind::Api { "api" } else { "worker" })
+            .or_default() += 1;
+        let index = i;
+        let (p, _) = deployment.start(kind, index);
+        if kind == Kind::Api {
+            let old = processes[i].addr.clone();
+            let mut apis = apis.lock().unwrap();
+            for a in apis.iter_mut() {
+                if *a == old {
+                    *a = p.addr.clone();
+                }
+            }
+        }
+        processes[i] = p;
+    }
+    let mut tries = 0;
+    for c in clients {
+        tries += c.await.unwrap();
+    }
+    eprintln!("kills: {killed:?}; {tries} upload attempts for {UPLOADS} uploads");
+
+    // Every acknowledged run's job ends, succeeded.
+    let api = apis.lock().unwrap()[0].clone();
+    let acked = acked.lock().unwrap().clone();
+    let mut by_run: HashMap<String, Acked> = HashMap::new();
+    for a in &acked {
+        if let Some(prev) = by_run.insert(a.run_id.clone(), a.clone()) {
+            assert_eq!(prev.job_id, a.job_id, "one job per run");
+        }
+    }
+    assert_eq!(by_run.len(), UPLOADS, "every upload is one run");
+    let started = Instant::now();
+    let mut results = Vec::new();
+    for a in by_run.values() {
+        loop {
+            let job: Value = http
+                .get(format!("{api}/api/v1/jobs/{}", a.job_id))
+                .bearer_auth(&token)
+                .send()
+                .await
+                .unwrap()
+                .json()
+                .await
+                .unwrap();
+            if job["state"] == "succeeded" {
+                break;
+            }
+            assert!(
+                job["state"] == "queued" || job["state"] == "running",
+                "{job}"
+            );
+            assert!(
+                started.elapsed() < Duration::from_secs(600),
+                "not done: {job}"
+            );
+            tokio::time::sleep(Duration::from_millis(200)).await;
+        }
+        let result: Value = http
+            .get(format!("{api}/api/v1/runs/{}/result", a.run_id))
+            .bearer_auth(&token)
+            .send()
+            .await
+            .unwrap()
+            .json()
+            .await
+            .unwrap();
+        results.push(result);
+    }
+    for p in processes {
+        p.sigterm();
+    }
+
+    // The database: one run per upload, each with its file; one result each.
+    let pool = sqlx::PgPool::connect(&deployment.database_url)
+        .await
+        .unwrap();
+    let rows: Vec<(String, String)> = sqlx::query_as("SELECT id, blob_path FROM runs")
+        .fetch_all(&pool)
+        .await
+        .unwrap();
+    assert_eq!(rows.len(), UPLOADS, "no run row beyond the acknowledged");
+    for (id, blob) in &rows {
+        assert!(by_run.contains_key(id), "run {id} was never acknowledged");
+        assert!(
+            data.path().join(blob).is_file(),
+            "run {id}: its file {blob} is missing"
+        );
+    }
+    let n: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM results")
+        .fetch_one(&pool)
+        .await
+        .unwrap();
+    assert_eq!(n as usize, UPLOADS);
+    let (jobs, queued): (i64, i64) =
+        sqlx::query_as("SELECT COUNT(*), COUNT(*) FILTER (WHERE state <> 'succeeded') FROM jobs")
+            .fetch_one(&pool)
+            .await
+            .unwrap();
+    assert_eq!((jobs as usize, queued), (UPLOADS, 0));
+
+    // No job ran to completion twice: across every worker's log, each
+    // job's success is written once (a second would be a fenced write that
+    // landed, or a claim of a finished job).
+    let mut succeeded = HashMap::<String, usize>::new();
+    for entry in std::fs::read_dir(logs.path()).unwrap() {
+        let text = std::fs::read_to_string(entry.unwrap().path()).unwrap();
+        for line in text.lines() {
+            if line.contains("job attempt ended") && line.contains("end=Succeeded") {
+                let job = line
+                    .split("job=")
+                    .nth(1)
+                    .and_then(|s| s.split_whitespace().next())
+                    .unwrap()
+                    .to_string();
+                *succeeded.entry(job).or_default() += 1;
+            }
+        }
+    }
+    for a in by_run.values() {
+        assert_eq!(
+            succeeded.get(&a.job_id).copied().unwrap_or(0),
+            1,
+            "job {} succeeded {:?} times",
+            a.job_id,
+            succeeded.get(&a.job_id)
+        );
+    }
+
+    // The results are the file's own: the uploads differ only by a comment.
+    let meta = sinscal::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
+    let direct = sinscal::pipeline::calibrate_file(
+        &run.data,
+        &meta,
+        &sinscal::calib::EstimateOptions::default(),
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    for result in &results {
+        for (name, p) in &direct.parameters {
+            let v = result["parameters"][name]["value"].as_f64().unwrap();
+            assert!(
+                (v - p.value).abs() <= 1e-12 * p.value.abs().max(1e-30),
+                "{name}: {v} vs {}",
+                p.value
+            );
+        }
+    }
+}
+
+/// `serve` with `--database-url`, expected to refuse to start: its exit
+/// status and what it printed on stderr.
+fn refused_start(database_url: &str) -> String {
+    let data = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_sinscal"))
+        .args(["serve", "--bind", "127.0.0.1:0", "--workers", "0"])
+        .arg("--data-dir")
+        .arg(data.path())
+        .args(["--database-url", database_url])
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "started on {database_url}");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// An unreachable server, a refused password and a missing database each
+/// stop the start with the URL (password hidden) and the reason.
+#[tokio::test]
+async fn a_database_that_cannot_be_used_is_named_with_the_reason() {
+    let admin = postgres::admin_url();
+    let (scheme_user, rest) = admin.split_once(':').unwrap();
+    assert_eq!(scheme_user, "postgres");
+    let unreachable = refused_start("postgres://sinscal:secret@127.0.0.1:1/sinscal");
+    assert!(
+        unreachable.contains("cannot open the database postgres://sinscal:***@127.0.0.1:1/sinscal")
+            && unreachable.to_lowercase().contains("refused"),
+        "{unreachable}"
+    );
+    assert!(!unreachable.contains("secret"), "{unreachable}");
+
+    // The admin URL with another password: postgres://user:PASSWORD@host…
+    let (user_part, host_part) = rest.rsplit_once('@').unwrap();
+    let user = user_part.trim_start_matches('/').split(':').next().unwrap();
+    let wrong = format!("postgres://{user}:not-the-password@{host_part}");
+    let refused = refused_start(&wrong);
+    assert!(
+        refused.contains("password authentication failed") && !refused.contains("not-the-password"),
+        "{refused}"
+    );
+
+    let missing = refused_start(&database_in(&admin, "no_such_database"));
+    assert!(
+        missing.contains("no_such_database") && missing.contains("does not exist"),
+        "{missing}"
+    );
+}
