@@ -372,7 +372,9 @@ struct Process(std::process::Child);
 
 impl Process {
     /// Starts `command` on `database_url`; returns it, its address and the
-    /// admin token if this start made one.
+    /// admin token if this start made one. The caller owns the child and
+    /// waits for it ([`Process::stop`]).
+    #[allow(clippy::zombie_processes)]
     fn start(command: &str, data: &Path, database_url: &str) -> (Process, String, Option<String>) {
         use std::io::BufRead;
         let workers = if command == "serve" { "0" } else { "1" };

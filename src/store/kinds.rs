@@ -278,7 +278,8 @@ mod tests {
         assert_eq!(
             "paused".parse::<JobState>(),
             Err(
-                "unknown job state \"paused\": queued, running, succeeded, failed or cancelled"
+                "unknown job state \"paused\": queued, running, succeeded, failed, dead_letter \
+                 or cancelled"
                     .to_string()
             )
         );

@@ -55,9 +55,10 @@ fn private_cluster() -> String {
         });
     let started = Instant::now();
     let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    // pg_virtualenv says what it creates on the same stdout.
     let url = lines
-        .next()
-        .and_then(|l| l.ok())
+        .map_while(Result::ok)
+        .find(|l| l.starts_with("postgres://"))
         .unwrap_or_else(|| panic!("pg_virtualenv started no cluster"));
     assert!(started.elapsed() < Duration::from_secs(120));
     // The child outlives this function on purpose: it ends with us.
