@@ -27,8 +27,9 @@ use std::io;
 use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 
-/// The folder of run files, relative to the data folder.
-const RUNS: &str = "runs";
+/// The folder of run files, relative to the data folder, and the first
+/// part of every blob path (an object store's keys mirror it).
+pub const RUNS: &str = "runs";
 /// The folder of partial uploads, inside `runs/`.
 const TMP: &str = "tmp";
 
@@ -174,12 +175,10 @@ impl RunFiles {
     pub fn sweep(&self, known: &HashSet<String>) -> io::Result<Swept> {
         let known: HashSet<PathBuf> = known.iter().map(|p| self.path(p)).collect();
         let runs = self.runs_dir();
-        let mut swept = Swept::default();
-        for entry in std::fs::read_dir(self.tmp_dir())? {
-            if std::fs::remove_file(entry?.path()).is_ok() {
-                swept.partial += 1;
-            }
-        }
+        let mut swept = Swept {
+            partial: self.sweep_partial()?,
+            orphans: 0,
+        };
         for shard in std::fs::read_dir(&runs)? {
             let shard = shard?.path();
             if !shard.is_dir() || shard.file_name().is_some_and(|n| n == TMP) {
@@ -193,6 +192,19 @@ impl RunFiles {
             }
         }
         Ok(swept)
+    }
+
+    /// Removes every file in `runs/tmp` (uploads a crash interrupted), and
+    /// only those: what [`RunFiles::sweep`] does first, and all of it when
+    /// the runs themselves are kept elsewhere.
+    pub fn sweep_partial(&self) -> io::Result<usize> {
+        let mut partial = 0;
+        for entry in std::fs::read_dir(self.tmp_dir())? {
+            if std::fs::remove_file(entry?.path()).is_ok() {
+                partial += 1;
+            }
+        }
+        Ok(partial)
     }
 
     /// Bytes an unprivileged process may still write on the filesystem of
