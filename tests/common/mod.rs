@@ -22,6 +22,7 @@ use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::Store;
 
 pub mod pages;
+pub mod s3;
 
 pub struct TestApp {
     pub base: String,
