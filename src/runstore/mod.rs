@@ -427,3 +427,33 @@ impl RunStore {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_flag_reads_local_or_a_bucket_and_prefix_and_names_what_is_wrong() {
+        assert_eq!("local".parse::<RunStoreSpec>(), Ok(RunStoreSpec::Local));
+        let RunStoreSpec::S3(at) = "s3://sinscal-runs/fleet/a/".parse().unwrap() else {
+            panic!("not an S3 location");
+        };
+        assert_eq!(
+            (at.bucket.as_str(), at.prefix.as_str()),
+            ("sinscal-runs", "fleet/a")
+        );
+        assert_eq!(at.orphan_grace, ORPHAN_GRACE);
+        assert!(at.options.is_empty());
+        assert_eq!(at.to_string(), "s3://sinscal-runs/fleet/a");
+        let RunStoreSpec::S3(root) = "s3://sinscal-runs".parse().unwrap() else {
+            panic!("not an S3 location");
+        };
+        assert_eq!(root.prefix, "");
+
+        let err = |s: &str| s.parse::<RunStoreSpec>().unwrap_err();
+        assert!(err("/srv/runs").contains("expected `local` or `s3://bucket/prefix`"));
+        assert!(err("s3://Upper/x").contains("is not a bucket name"));
+        assert!(err("s3://ab").contains("is not a bucket name"));
+        assert!(err("s3://runs/a//b").contains("key prefix"));
+    }
+}
