@@ -230,8 +230,8 @@ async fn healthz() -> Json<serde_json::Value> {
 /// Ready when the server can take an upload to its end: not stopping, the
 /// data folder above its free-space floor and writable, an object store
 /// (when runs are kept in one) taking a write, read and delete, the
-/// database readable and writable. Each check runs on every call, so readiness
-/// returns by itself once space is freed.
+/// database readable and writable. Each check runs on every call, so
+/// readiness returns by itself once space is freed.
 async fn readyz(State(st): State<AppState>) -> Response {
     match not_ready(&st).await {
         None => Json(serde_json::json!({"status": "ready"})).into_response(),

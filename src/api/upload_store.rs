@@ -1,6 +1,7 @@
 //! Storing an uploaded run once its bytes are checked: the bytes made
-//! whole in the run store, then the run and job rows in one transaction, or the run already stored with the
-//! same bytes (for the API's upload and the pages' form alike).
+//! whole in the run store, then the run and job rows in one transaction,
+//! or the run already stored with the same bytes (for the API's upload and
+//! the pages' form alike).
 
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
