@@ -14,6 +14,7 @@ use std::time::Duration;
 
 use crate::calib::{Effect, ErrorModel, EstimateOptions};
 use crate::model::{Group, PARAMETERS};
+use crate::runstore::RunStoreSpec;
 
 /// The embedded defaults: what `serve` uses with neither a flag nor its
 /// environment variable, and what [`Config::new`] starts from. The flags
@@ -157,6 +158,14 @@ pub struct ServeArgs {
     /// (canonical units), replacing the defaults it names.
     #[arg(long, env = "SINSCAL_TOLERANCES")]
     pub tolerances: Option<PathBuf>,
+    /// Where run files are kept: absent (or `local`), `runs/` in the data
+    /// folder; `s3://bucket/prefix`, objects under that prefix of an
+    /// S3-compatible store, its endpoint, region and credentials from
+    /// AWS_ENDPOINT_URL, AWS_REGION, AWS_ACCESS_KEY_ID,
+    /// AWS_SECRET_ACCESS_KEY (and AWS_ALLOW_HTTP=true for a plain-HTTP
+    /// endpoint).
+    #[arg(long, env = "SINSCAL_RUN_STORE")]
+    pub run_store: Option<RunStoreSpec>,
 }
 
 /// How slow an upload body may be.
@@ -204,6 +213,8 @@ pub struct Config {
     pub diagnose_inadequate: bool,
     /// Wall time one scheme design over HTTP may take.
     pub design_time_limit: Duration,
+    /// Where run files are kept.
+    pub run_store: RunStoreSpec,
 }
 
 /// Default repeatability tolerances (1-σ over runs, and largest change
@@ -279,6 +290,7 @@ impl Config {
             },
             diagnose_inadequate: defaults::DIAGNOSE_INADEQUATE,
             design_time_limit: Duration::from_secs_f64(defaults::DESIGN_TIME_LIMIT_SECS),
+            run_store: RunStoreSpec::Local,
         }
     }
 
@@ -326,6 +338,7 @@ impl Config {
         c.min_free_bytes = a.min_free_bytes;
         c.design_time_limit =
             seconds_flag("design-time-limit-secs", a.design_time_limit_secs, 1.0)?;
+        c.run_store = a.run_store.clone().unwrap_or_default();
         if let Some(path) = &a.tolerances {
             let text = std::fs::read(path).map_err(|source| ConfigError::Read {
                 path: path.display().to_string(),

@@ -9,6 +9,7 @@
 //! types' limits and the verdict on a result), `plot` (charts as SVG text
 //! for the server's pages);
 //! and the server: `store` (SQLite), `runfiles` (the run files on disk),
+//! `runstore` (where runs are kept: that folder or an S3-compatible store),
 //! `jobs` (durable queue, workers), `api` (HTTP), `web` (the workbench's
 //! pages), `server` (configuration, application).
 
@@ -29,6 +30,7 @@ pub mod pipeline;
 pub mod plot;
 pub mod record;
 pub mod runfiles;
+pub mod runstore;
 pub mod server;
 pub mod sim;
 pub mod store;

@@ -1,6 +1,7 @@
 //! Process-local counters for `GET /metrics`. Queue depth and jobs by state
 //! are read from the database at scrape time (they survive restarts); what
-//! only this process sees (bytes received, job durations) is counted here.
+//! only this process sees (bytes received, job durations, the run store's
+//! latency) is counted here.
 
 use std::fmt::Write as _;
 use std::sync::Mutex;
@@ -9,6 +10,27 @@ use std::sync::Mutex;
 const DURATION_BUCKETS_S: [f64; 11] = [
     0.5, 1.0, 2.0, 5.0, 10.0, 30.0, 60.0, 120.0, 300.0, 600.0, 1800.0,
 ];
+
+/// Upper bounds of the run-store latency histogram, seconds: a local
+/// rename takes microseconds, an object store's round trip milliseconds,
+/// a run's multipart upload or download seconds to minutes.
+const STORE_BUCKETS_S: [f64; 12] = [
+    0.001, 0.005, 0.01, 0.05, 0.1, 0.5, 1.0, 5.0, 10.0, 30.0, 60.0, 300.0,
+];
+
+/// Bucket counts, sum and count of one histogram series.
+type Series<const N: usize> = ([u64; N], f64, u64);
+
+fn observe<const N: usize>(series: &mut Series<N>, bounds: &[f64; N], seconds: f64) {
+    let (buckets, sum, count) = series;
+    for (b, le) in buckets.iter_mut().zip(bounds) {
+        if seconds <= *le {
+            *b += 1;
+        }
+    }
+    *sum += seconds;
+    *count += 1;
+}
 
 #[derive(Debug, Default)]
 struct Inner {
@@ -19,6 +41,8 @@ struct Inner {
     /// Writes of a finished job's product refused by a full disk (each
     /// retried).
     storage_full_retries: u64,
+    /// Per run-store operation (put, get, delete, list).
+    store_ops: [Series<{ STORE_BUCKETS_S.len() }>; 4],
 }
 
 /// How an upload ended.
@@ -27,6 +51,20 @@ pub enum UploadOutcome {
     Accepted = 0,
     Duplicate = 1,
     Refused = 2,
+}
+
+/// An operation on the run store, for its latency histogram.
+#[derive(Clone, Copy, Debug)]
+pub enum StoreOp {
+    /// A run's bytes made durable in the store (the local commit, or the
+    /// upload of an object).
+    Put = 0,
+    /// A run's bytes fetched for a reader (object stores only: a local
+    /// file is read in place).
+    Get = 1,
+    Delete = 2,
+    /// A listing for the sweep.
+    List = 3,
 }
 
 /// How an attempt at a job ended, for the duration histogram.
@@ -60,14 +98,17 @@ impl Metrics {
 
     pub fn job_finished(&self, outcome: JobOutcome, seconds: f64) {
         let mut inner = self.inner.lock().expect("metrics lock");
-        let (buckets, sum, count) = &mut inner.durations[outcome as usize];
-        for (b, le) in buckets.iter_mut().zip(DURATION_BUCKETS_S) {
-            if seconds <= le {
-                *b += 1;
-            }
-        }
-        *sum += seconds;
-        *count += 1;
+        observe(
+            &mut inner.durations[outcome as usize],
+            &DURATION_BUCKETS_S,
+            seconds,
+        );
+    }
+
+    /// One run-store operation took `seconds` (successful or not).
+    pub fn store_op(&self, op: StoreOp, seconds: f64) {
+        let mut inner = self.inner.lock().expect("metrics lock");
+        observe(&mut inner.store_ops[op as usize], &STORE_BUCKETS_S, seconds);
     }
 
     /// The Prometheus text exposition (format 0.0.4), with the database's
@@ -103,27 +144,35 @@ impl Metrics {
             "# HELP sinscal_job_duration_seconds Wall time of job attempts."
         );
         let _ = writeln!(s, "# TYPE sinscal_job_duration_seconds histogram");
-        for (name, (buckets, sum, count)) in ["succeeded", "failed", "cancelled"]
+        for (name, series) in ["succeeded", "failed", "cancelled"]
             .iter()
             .zip(&inner.durations)
         {
-            for (le, b) in DURATION_BUCKETS_S.iter().zip(buckets) {
-                let _ = writeln!(
-                    s,
-                    "sinscal_job_duration_seconds_bucket{{outcome=\"{name}\",le=\"{le}\"}} {b}"
-                );
-            }
-            let _ = writeln!(
-                s,
-                "sinscal_job_duration_seconds_bucket{{outcome=\"{name}\",le=\"+Inf\"}} {count}"
+            let label = format!("outcome=\"{name}\"");
+            histogram(
+                &mut s,
+                "sinscal_job_duration_seconds",
+                &label,
+                &DURATION_BUCKETS_S,
+                series,
             );
-            let _ = writeln!(
-                s,
-                "sinscal_job_duration_seconds_sum{{outcome=\"{name}\"}} {sum}"
-            );
-            let _ = writeln!(
-                s,
-                "sinscal_job_duration_seconds_count{{outcome=\"{name}\"}} {count}"
+        }
+        let _ = writeln!(
+            s,
+            "# HELP sinscal_run_store_seconds Latency of run-store operations by kind."
+        );
+        let _ = writeln!(s, "# TYPE sinscal_run_store_seconds histogram");
+        for (name, series) in ["put", "get", "delete", "list"]
+            .iter()
+            .zip(&inner.store_ops)
+        {
+            let label = format!("op=\"{name}\"");
+            histogram(
+                &mut s,
+                "sinscal_run_store_seconds",
+                &label,
+                &STORE_BUCKETS_S,
+                series,
             );
         }
         let _ = writeln!(
@@ -138,4 +187,20 @@ impl Metrics {
         );
         s
     }
+}
+
+/// One labelled series of a histogram in the text exposition.
+fn histogram<const N: usize>(
+    s: &mut String,
+    name: &str,
+    label: &str,
+    bounds: &[f64; N],
+    (buckets, sum, count): &Series<N>,
+) {
+    for (le, b) in bounds.iter().zip(buckets) {
+        let _ = writeln!(s, "{name}_bucket{{{label},le=\"{le}\"}} {b}");
+    }
+    let _ = writeln!(s, "{name}_bucket{{{label},le=\"+Inf\"}} {count}");
+    let _ = writeln!(s, "{name}_sum{{{label}}} {sum}");
+    let _ = writeln!(s, "{name}_count{{{label}}} {count}");
 }

@@ -28,8 +28,9 @@ use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, SystemTime};
 
-/// The folder of run files, relative to the data folder.
-const RUNS: &str = "runs";
+/// The folder of run files, relative to the data folder, and the first
+/// part of every blob path (an object store's keys mirror it).
+pub const RUNS: &str = "runs";
 /// The folder of partial uploads, inside `runs/`.
 const TMP: &str = "tmp";
 
@@ -180,20 +181,10 @@ impl RunFiles {
     pub fn sweep(&self, known: &HashSet<String>, grace: Duration) -> io::Result<Swept> {
         let known: HashSet<PathBuf> = known.iter().map(|p| self.path(p)).collect();
         let runs = self.runs_dir();
-        let now = SystemTime::now();
-        let old_enough = |path: &Path| {
-            grace.is_zero()
-                || std::fs::metadata(path)
-                    .and_then(|m| m.modified())
-                    .is_ok_and(|t| now.duration_since(t).unwrap_or_default() > grace)
+        let mut swept = Swept {
+            partial: self.sweep_partial(grace)?,
+            orphans: 0,
         };
-        let mut swept = Swept::default();
-        for entry in std::fs::read_dir(self.tmp_dir())? {
-            let path = entry?.path();
-            if old_enough(&path) && std::fs::remove_file(&path).is_ok() {
-                swept.partial += 1;
-            }
-        }
         for shard in std::fs::read_dir(&runs)? {
             let shard = shard?.path();
             if !shard.is_dir() || shard.file_name().is_some_and(|n| n == TMP) {
@@ -202,7 +193,7 @@ impl RunFiles {
             for file in std::fs::read_dir(&shard)? {
                 let file = file?.path();
                 if !known.contains(&file)
-                    && old_enough(&file)
+                    && written_before(&file, grace)
                     && std::fs::remove_file(&file).is_ok()
                 {
                     swept.orphans += 1;
@@ -212,11 +203,35 @@ impl RunFiles {
         Ok(swept)
     }
 
+    /// Removes the files in `runs/tmp` (uploads a crash interrupted) last
+    /// written more than `grace` ago, and only those: what
+    /// [`RunFiles::sweep`] does first, and all of it when the runs
+    /// themselves are kept elsewhere.
+    pub fn sweep_partial(&self, grace: Duration) -> io::Result<usize> {
+        let mut partial = 0;
+        for entry in std::fs::read_dir(self.tmp_dir())? {
+            let path = entry?.path();
+            if written_before(&path, grace) && std::fs::remove_file(&path).is_ok() {
+                partial += 1;
+            }
+        }
+        Ok(partial)
+    }
+
     /// Bytes an unprivileged process may still write on the filesystem of
     /// the data folder (`statvfs`: available blocks × fragment size).
     pub fn available_bytes(&self) -> io::Result<u64> {
         available_bytes(&self.data_dir)
     }
+}
+
+/// Whether `path` was last written more than `grace` ago (any file, when
+/// `grace` is zero; none whose time cannot be read, otherwise).
+fn written_before(path: &Path, grace: Duration) -> bool {
+    grace.is_zero()
+        || std::fs::metadata(path)
+            .and_then(|m| m.modified())
+            .is_ok_and(|t| SystemTime::now().duration_since(t).unwrap_or_default() > grace)
 }
 
 /// fsyncs a directory so that a rename into it survives power loss.

@@ -39,9 +39,14 @@ struct Process {
 /// The settings every process of the deployment shares.
 #[derive(Clone)]
 struct Deployment {
+    /// The data folder: one shared by every process (runs kept in it), or,
+    /// with an object store, one per process under this folder (as on
+    /// separate machines).
     data_dir: PathBuf,
     database_url: String,
     logs: PathBuf,
+    /// `--run-store s3://…` and the environment that reaches the store.
+    object_store: Option<(String, Vec<(&'static str, String)>)>,
 }
 
 impl Deployment {
@@ -54,12 +59,19 @@ impl Deployment {
             Kind::Worker => ("worker", "1"),
         };
         let log = self.logs.join(format!("{command}-{index}.log"));
-        let mut child = Command::new(env!("CARGO_BIN_EXE_sinscal"))
-            .args([command, "--bind", "127.0.0.1:0", "--workers", workers])
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_sinscal"));
+        cmd.args([command, "--bind", "127.0.0.1:0", "--workers", workers])
             .args(["--lease-secs", "1", "--max-attempts", "50"])
-            .arg("--data-dir")
-            .arg(&self.data_dir)
-            .args(["--database-url", &self.database_url])
+            .args(["--database-url", &self.database_url]);
+        match &self.object_store {
+            None => cmd.arg("--data-dir").arg(&self.data_dir),
+            Some((run_store, env)) => cmd
+                .arg("--data-dir")
+                .arg(self.data_dir.join(format!("{command}-{index}")))
+                .args(["--run-store", run_store])
+                .envs(env.iter().map(|(k, v)| (*k, v.as_str()))),
+        };
+        let mut child = cmd
             .env("RUST_LOG", "info,sqlx=warn")
             .stdout(Stdio::piped())
             .stderr(
@@ -128,17 +140,48 @@ struct Acked {
     job_id: String,
 }
 
+/// The deployment the issue describes: PostgreSQL and an S3-compatible
+/// store, every process with its own data folder.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn two_servers_three_workers_ten_sigkills_every_run_calibrated_once() {
+async fn on_postgres_and_s3_two_servers_three_workers_ten_sigkills_lose_nothing() {
+    let s3 = s3::S3Server::start().await;
+    let bucket = s3.create_bucket("scale").await;
+    let client = s3.client(&bucket);
+    let store = (format!("s3://{bucket}/line-1"), s3.env());
+    let has_object = |keys: Vec<String>| move |blob: &str| keys.contains(&format!("line-1/{blob}"));
+    chaos(Some(store), async move {
+        has_object(client.keys("line-1/runs").await)
+    })
+    .await;
+}
+
+/// The same on one machine whose processes share a data folder for runs.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn on_postgres_and_a_shared_folder_the_same_holds() {
+    chaos(None, async { |_: &str| true }).await;
+}
+
+/// 2 API servers and 3 workers, 50 uploads from 8 clients, 10 SIGKILLs of
+/// random processes (each restarted); then the checks of the module's head.
+/// `objects` lists the object store once everything is done, as a test of
+/// whether a blob path has its object (the shared folder is checked on
+/// disk).
+async fn chaos<F, P>(object_store: Option<(String, Vec<(&'static str, String)>)>, objects: F)
+where
+    F: std::future::Future<Output = P>,
+    P: Fn(&str) -> bool,
+{
     const UPLOADS: usize = 50;
     const CLIENTS: usize = 8;
     const KILLS: usize = 10;
     let data = tempfile::tempdir().unwrap();
     let logs = tempfile::tempdir().unwrap();
+    let shared_folder = object_store.is_none();
     let deployment = Deployment {
         data_dir: data.path().to_path_buf(),
         database_url: postgres::fresh_database("sinscal_scale").await,
         logs: logs.path().to_path_buf(),
+        object_store,
     };
     // The first API server migrates the database and makes the token.
     let (api0, token) = deployment.start(Kind::Api, 0);
@@ -299,12 +342,15 @@ async fn two_servers_three_workers_ten_sigkills_every_run_calibrated_once() {
         .await
         .unwrap();
     assert_eq!(rows.len(), UPLOADS, "no run row beyond the acknowledged");
+    let has_object = objects.await;
     for (id, blob) in &rows {
         assert!(by_run.contains_key(id), "run {id} was never acknowledged");
-        assert!(
-            data.path().join(blob).is_file(),
-            "run {id}: its file {blob} is missing"
-        );
+        let whole = if shared_folder {
+            data.path().join(blob).is_file()
+        } else {
+            has_object(blob)
+        };
+        assert!(whole, "run {id}: its bytes at {blob} are missing");
     }
     let n: i64 = sqlx::query_scalar("SELECT COUNT(*) FROM results")
         .fetch_one(&pool)

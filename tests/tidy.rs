@@ -437,7 +437,7 @@ fn the_stated_absences_hold() {
         "thermal",
     ];
     let server_side = [
-        "store", "jobs", "api", "web", "server", "config", "metrics", "runfiles",
+        "store", "jobs", "api", "web", "server", "config", "metrics", "runfiles", "runstore",
     ];
     for m in core {
         for s in server_side {

@@ -8,6 +8,7 @@ use serde::Serialize;
 use crate::accept::LimitError;
 use crate::io::data::{DataError, Position};
 use crate::noise::NoiseError;
+use crate::runstore::RunStoreError;
 use crate::store::{is_storage_full_io, StoreError};
 
 /// How long a client is asked to wait after a full disk (507) before
@@ -138,6 +139,23 @@ impl From<std::io::Error> for ApiError {
             return ApiError::storage_full();
         }
         ApiError::Internal(format!("I/O: {e}"))
+    }
+}
+
+impl From<RunStoreError> for ApiError {
+    fn from(e: RunStoreError) -> Self {
+        match e {
+            // Local I/O keeps its meaning (a full disk is 507).
+            RunStoreError::Io { source, .. } => ApiError::from(source),
+            // The object store may answer again shortly.
+            e @ RunStoreError::Remote { .. } => {
+                tracing::warn!(error = %e, "run store unavailable");
+                ApiError::Unavailable {
+                    detail: format!("the run store is unavailable: {e}"),
+                    retry_after_s: 30,
+                }
+            }
+        }
     }
 }
 

@@ -33,7 +33,7 @@ use self::auth::{roles, Auth};
 use self::error::{problem_response, ApiError, PROBLEM_JSON};
 use crate::config::Config;
 use crate::metrics::Metrics;
-use crate::runfiles::RunFiles;
+use crate::runstore::RunStore;
 use crate::store::Store;
 
 /// The OpenAPI document at the repository root: what the server serves is
@@ -44,6 +44,8 @@ pub const OPENAPI_YAML: &str = include_str!("../../openapi.yaml");
 #[derive(Clone)]
 pub struct AppState {
     pub store: Store,
+    /// Where the runs' files are kept.
+    pub run_store: RunStore,
     pub config: Arc<Config>,
     pub metrics: Arc<Metrics>,
     /// Wakes a worker when a job is queued.
@@ -247,9 +249,10 @@ async fn healthz() -> Json<serde_json::Value> {
 }
 
 /// Ready when the server can take an upload to its end: not stopping, the
-/// data folder above its free-space floor and writable, the database
-/// readable and writable. Each check runs on every call, so readiness
-/// returns by itself once space is freed.
+/// data folder above its free-space floor and writable, an object store
+/// (when runs are kept in one) taking a write, read and delete, the
+/// database readable and writable. Each check runs on every call, so
+/// readiness returns by itself once space is freed.
 async fn readyz(State(st): State<AppState>) -> Response {
     match not_ready(&st).await {
         None => Json(serde_json::json!({"status": "ready"})).into_response(),
@@ -268,24 +271,7 @@ async fn not_ready(st: &AppState) -> Option<String> {
     if st.stopping.load(Ordering::Relaxed) {
         return Some("shutting down".into());
     }
-    let files = RunFiles::new(st.config.data_dir.clone());
-    let floor = st.config.min_free_bytes;
-    let disk = tokio::task::spawn_blocking(move || -> Result<(), String> {
-        let free = files
-            .available_bytes()
-            .map_err(|e| format!("data folder: {e}"))?;
-        if free < floor {
-            return Err(format!(
-                "storage low: {free} bytes free in the data folder, below the floor of {floor}"
-            ));
-        }
-        files
-            .probe_write()
-            .map_err(|e| format!("data folder not writable: {e}"))
-    })
-    .await
-    .unwrap_or_else(|e| Err(format!("probe task: {e}")));
-    if let Err(why) = disk {
+    if let Some(why) = st.run_store.not_ready(st.config.min_free_bytes).await {
         return Some(why);
     }
     if let Err(e) = st.store.ping().await {

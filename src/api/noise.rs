@@ -22,7 +22,6 @@ use super::{parse_id, AppState};
 use crate::io::meta::RunMetadata;
 use crate::noise::{NoiseOptions, NoiseReport};
 use crate::pipeline::noise_file;
-use crate::runfiles::RunFiles;
 
 /// What a refused request is told to wait, s.
 const BUSY_RETRY_AFTER_S: u64 = 5;
@@ -57,7 +56,6 @@ pub(crate) async fn analyse_noise(st: &AppState, id: &str) -> Result<NoiseReport
     let run = super::runs::stored_run(st, id).await?;
     let meta = RunMetadata::from_json(run.file.metadata.as_bytes())
         .map_err(|e| ApiError::Internal(format!("stored metadata of run {id}: {e}")))?;
-    let data = RunFiles::new(st.config.data_dir.clone()).path(&run.file.blob_path);
     let permit =
         st.noise_analyses
             .clone()
@@ -66,13 +64,16 @@ pub(crate) async fn analyse_noise(st: &AppState, id: &str) -> Result<NoiseReport
                 detail: "noise analyses are running; retry when one has finished".into(),
                 retry_after_s: BUSY_RETRY_AFTER_S,
             })?;
+    // After the permit, so a refused request fetches nothing; the copy
+    // (an object store's download) goes with the computation too.
+    let data = st.run_store.local_copy(&run.file.blob_path).await?;
     let cancel = Arc::new(AtomicBool::new(false));
     let _stop_if_gone = CancelOnDrop(cancel.clone());
     // The permit goes with the computation: a client that hangs up does
     // not free the slot before its analysis has stopped.
     let report = tokio::task::spawn_blocking(move || {
         let _permit = permit;
-        noise_file(&data, &meta, &NoiseOptions::default(), &cancel)
+        noise_file(data.path(), &meta, &NoiseOptions::default(), &cancel)
     })
     .await
     .map_err(|e| ApiError::Internal(format!("noise task: {e}")))??;

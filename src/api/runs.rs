@@ -19,7 +19,6 @@ use super::{parse_id, refuse_while_stopping, rfc3339, AppState};
 
 use crate::accept::Verdict;
 use crate::diagnose::DiagnoseReport;
-use crate::runfiles::RunFiles;
 use crate::store::{
     CalibrationRequeued, DiagnoseQueued, JobRow, Review, RunDeletion, RunRow, StoredVerdict,
 };
@@ -226,10 +225,11 @@ async fn delete_run(
 pub(crate) async fn remove_run(st: &AppState, id: &str) -> Result<(), ApiError> {
     match st.store.delete_run(id).await? {
         RunDeletion::Deleted { blob_path } => {
-            // The rows are gone first: a crash before this line leaves an
-            // orphan file, which the startup sweep removes.
-            let files = RunFiles::new(st.config.data_dir.clone());
-            let _ = tokio::task::spawn_blocking(move || files.remove(&blob_path)).await;
+            // The rows are gone first: a crash before this line, or a
+            // failed delete, leaves orphan bytes, which the sweep removes.
+            if let Err(e) = st.run_store.remove(&blob_path).await {
+                tracing::warn!(run = %id, error = %e, "run file left for the sweep");
+            }
             tracing::info!(run = %id, "run deleted");
             Ok(())
         }

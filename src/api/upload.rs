@@ -2,11 +2,11 @@
 //! and validated, acknowledged only once it is durable.
 //!
 //! The body never sits in memory: chunks go through a bounded channel to a
-//! blocking thread that writes them to a temp file of [`RunFiles`], hashes
+//! blocking thread that writes them to a local temp file, hashes
 //! them and feeds them to [`RecordReader`], which checks every record. On
 //! any refusal the temp file is removed. On success the file is committed
-//! (made durable at its place, see `crate::runfiles`), then the run and job
-//! rows are written in one transaction, then 202.
+//! (made whole in the run store, see `crate::runstore`), then the run and
+//! job rows are written in one transaction, then 202.
 
 use std::io::{self, BufWriter, Read, Write};
 
@@ -29,7 +29,6 @@ use super::{refuse_while_stopping, AppState};
 use crate::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
 use crate::io::meta::{validate_serial, RunMetadata};
 use crate::metrics::UploadOutcome;
-use crate::runfiles::RunFiles;
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.
 pub const METADATA_HEADER: &str = "x-sinscal-metadata";
@@ -148,7 +147,7 @@ fn sink(
     };
     // Anything the reader did not consume (nothing for a valid file, whose
     // reader reads to the end) is still part of the stored bytes. (The
-    // fsync is the commit's, see `RunFiles`.)
+    // fsync is the commit's, see `crate::runfiles`.)
     while tee.next_chunk()? {}
     tee.file.into_inner().map_err(|e| e.into_error())?;
     Ok((hex::encode(tee.hasher.finalize()), tee.written, checked))
@@ -189,7 +188,7 @@ async fn ingest<S>(
 where
     S: Stream<Item = Result<Bytes, ApiError>> + Unpin,
 {
-    let (pending, file) = RunFiles::new(st.config.data_dir.clone()).create_temp()?;
+    let (pending, file) = st.run_store.create_temp()?;
     let (tx, rx) = tokio::sync::mpsc::channel::<Bytes>(16);
     let check = meta.map(|m| {
         (
@@ -286,7 +285,7 @@ fn multipart_error(e: axum::extract::multipart::MultipartError) -> ApiError {
 /// Refuses an upload while the data folder's filesystem is below its
 /// free-space floor, before a byte of the body is read.
 fn check_free_space(st: &AppState) -> Result<(), ApiError> {
-    match RunFiles::new(st.config.data_dir.clone()).available_bytes() {
+    match st.run_store.available_bytes() {
         Ok(free) if free < st.config.min_free_bytes => {
             tracing::warn!(
                 free,

@@ -1,6 +1,7 @@
-//! Storing an uploaded run once its bytes are durable and checked: the
-//! run and job rows in one transaction, or the run already stored with the
-//! same bytes (for the API's upload and the pages' form alike).
+//! Storing an uploaded run once its bytes are checked: the bytes made
+//! whole in the run store, then the run and job rows in one transaction,
+//! or the run already stored with the same bytes (for the API's upload and
+//! the pages' form alike).
 
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -145,10 +146,9 @@ pub(super) async fn store_run(
         (DataFormat::F64le, _) => "bin",
     };
     let blob_path = RunFiles::blob_path(&run_id, ext);
-    // Until the rows commit, the file is `stored`'s, removed on any early
-    // return; the startup sweep covers a crash.
-    let files = RunFiles::new(st.config.data_dir.clone());
-    let stored = data.file.commit_off_runtime(files, &blob_path).await?;
+    // Until the rows commit, the bytes are `stored`'s, deleted on any early
+    // return; the sweep covers a crash.
+    let stored = st.run_store.commit(data.file, &blob_path).await?;
     // Checked when the metadata was parsed.
     let recorded_at = meta.recorded_at_ms().map_err(ApiError::InvalidMetadata)?;
     let new = NewRun {
@@ -190,6 +190,7 @@ pub(super) async fn store_run(
         InsertOutcome::Existing { run_id, .. } => {
             // Stored by a concurrent upload of the same bytes since the
             // check above.
+            stored.discard().await;
             st.metrics.upload(UploadOutcome::Duplicate);
             let existing = st
                 .store
@@ -199,6 +200,7 @@ pub(super) async fn store_run(
             existing_answer(auth, &existing, &metadata)
         }
         InsertOutcome::QueueFull => {
+            stored.discard().await;
             st.metrics.upload(UploadOutcome::Refused);
             Err(queue_full())
         }

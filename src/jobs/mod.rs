@@ -21,7 +21,7 @@ use crate::diagnose::{DiagnoseError, DiagnoseOptions};
 use crate::io::meta::RunMetadata;
 use crate::metrics::{JobOutcome, Metrics};
 use crate::pipeline::{calibrate_file, diagnose_file};
-use crate::runfiles::RunFiles;
+use crate::runstore::{LocalCopy, RunStore};
 use crate::store::{Claim, JobKind, JobState, OnInadequate, Store, StoreError};
 
 /// Errors of the job layer (only the database can fail it: an estimator
@@ -104,6 +104,14 @@ impl From<DiagnoseError> for Failure {
     }
 }
 
+/// What fetching a claimed run's file came to.
+enum Fetched {
+    Copy(LocalCopy),
+    /// Possibly transient (the store did not answer): worth another attempt.
+    Failed(String),
+    LeaseLost,
+}
+
 /// Why the estimator's cancel flag was raised.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum StopReason {
@@ -116,6 +124,8 @@ enum StopReason {
 #[derive(Clone, Debug)]
 pub struct JobSettings {
     pub data_dir: PathBuf,
+    /// Where the runs' files are read from.
+    pub run_store: RunStore,
     pub lease: Duration,
     pub estimate: EstimateOptions,
     /// First retry delay; doubled per attempt, at most a minute.
@@ -195,7 +205,15 @@ impl JobRunner {
                     .await
             }
         };
-        let path = RunFiles::new(self.settings.data_dir.clone()).path(&claim.blob_path);
+        // A local file to stream (for an object store, a scratch download
+        // that goes when `local` is dropped, once the blocking work ends
+        // however it ends). A store that cannot answer now may later.
+        let local = match self.fetch_run_file(claim).await {
+            Fetched::Copy(local) => local,
+            Fetched::Failed(e) => return self.fail(claim, &e, true).await,
+            Fetched::LeaseLost => return Ok(JobEnd::LeaseLost),
+        };
+        let path = local.path().to_path_buf();
         let cancel = Arc::new(AtomicBool::new(false));
         let progress = Arc::new(Mutex::new((0.0_f64, String::from("starting"))));
         // The schema's CHECK allows no other kind (a row with one would
@@ -265,6 +283,9 @@ impl JobRunner {
                 }
             }
         };
+        // The blocking work is over: a scratch copy goes before the outcome
+        // is written.
+        drop(local);
         if reason == Some(StopReason::LeaseLost) {
             return Ok(JobEnd::LeaseLost);
         }
@@ -295,6 +316,37 @@ impl JobRunner {
                     "the estimator task was aborted"
                 };
                 self.fail(claim, what, true).await
+            }
+        }
+    }
+
+    /// The claimed run's file as a local file, the lease renewed while it
+    /// arrives: an object store's download of a large run can take longer
+    /// than a lease.
+    async fn fetch_run_file(&self, claim: &Claim) -> Fetched {
+        let fetch = self.settings.run_store.local_copy(&claim.blob_path);
+        tokio::pin!(fetch);
+        let mut tick = tokio::time::interval(self.heartbeat_every());
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        tick.tick().await;
+        loop {
+            tokio::select! {
+                fetched = &mut fetch => {
+                    return match fetched {
+                        Ok(copy) => Fetched::Copy(copy),
+                        Err(e) => Fetched::Failed(e.to_string()),
+                    };
+                }
+                _ = tick.tick() => {
+                    let lease = self.settings.lease;
+                    match self.store.heartbeat(&claim.fence, lease, 0.0, "fetching the run").await {
+                        Ok(None) => return Fetched::LeaseLost,
+                        // A cancel request is seen by the first heartbeat
+                        // of the work itself.
+                        Ok(Some(_)) => {}
+                        Err(e) => tracing::warn!(job = %claim.fence.job_id, error = %e, "heartbeat failed"),
+                    }
+                }
             }
         }
     }

@@ -18,7 +18,8 @@ use crate::api::{self, auth, AppState};
 use crate::config::{database_path, Config, ConfigError, ServeArgs};
 use crate::jobs::{JobRunner, JobSettings, WorkerPool};
 use crate::metrics::Metrics;
-use crate::runfiles::{RunFiles, Swept};
+use crate::runfiles::RunFiles;
+use crate::runstore::{RunStore, RunStoreError, Swept};
 use crate::store::{Backend, DatabaseUrl, OnInadequate, Role, Store, StoreError};
 
 /// Errors starting or running the server.
@@ -34,6 +35,8 @@ pub enum ServerError {
     },
     #[error(transparent)]
     Config(#[from] ConfigError),
+    #[error(transparent)]
+    RunStore(#[from] RunStoreError),
     #[error("no database at {0}: give the --data-dir the server runs with (it creates the database at its first start)")]
     NoDatabase(String),
 }
@@ -67,19 +70,47 @@ async fn open_store(config: &Config, readers: u32) -> Result<Store, ServerError>
 /// its file's last write to its row's commit.
 const SHARED_SWEEP_GRACE: Duration = Duration::from_secs(15 * 60);
 
-/// Removes what a crash can leave behind (see [`RunFiles::sweep`]): at
-/// once on SQLite, where this process is alone on its data folder; after
-/// [`SHARED_SWEEP_GRACE`] on PostgreSQL, where other processes may be in
-/// the middle of an upload.
-async fn sweep_orphans(store: &Store, data_dir: &Path) -> Result<Swept, ServerError> {
+/// Removes what a crash can leave behind (see [`RunStore::sweep_at_start`]):
+/// a local folder's files at once on SQLite, where this process is alone on
+/// its data folder, and after [`SHARED_SWEEP_GRACE`] on PostgreSQL, where
+/// other processes may be in the middle of an upload.
+async fn sweep_orphans(store: &Store, runs: &RunStore) -> Result<Swept, ServerError> {
     let known = store.all_blob_paths().await?.into_iter().collect();
     let grace = match store.backend() {
         Backend::Sqlite => Duration::ZERO,
         Backend::Postgres => SHARED_SWEEP_GRACE,
     };
-    RunFiles::new(data_dir)
-        .sweep(&known, grace)
-        .map_err(io_err("sweeping the run files"))
+    Ok(runs.sweep_at_start(&known, grace).await?)
+}
+/// Sweeps an object store every `every` until the server stops: other
+/// servers sharing the bucket may crash between a put and its rows, and
+/// this one may run for months without a restart.
+fn spawn_periodic_sweep(
+    store: Store,
+    runs: RunStore,
+    every: Duration,
+) -> tokio::task::JoinHandle<()> {
+    tokio::spawn(async move {
+        let mut tick = tokio::time::interval(every);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        // The first tick is immediate, and the start has just swept.
+        tick.tick().await;
+        loop {
+            tick.tick().await;
+            let known = match store.all_blob_paths().await {
+                Ok(paths) => paths.into_iter().collect(),
+                Err(e) => {
+                    tracing::warn!(error = %e, "run store sweep skipped: reading the blob paths");
+                    continue;
+                }
+            };
+            match runs.sweep_objects(&known).await {
+                Ok(0) => {}
+                Ok(orphans) => tracing::info!(orphans, "removed objects no run names"),
+                Err(e) => tracing::warn!(error = %e, "run store sweep failed"),
+            }
+        }
+    })
 }
 
 /// What a process serves over HTTP.
@@ -115,9 +146,22 @@ impl Application {
     pub async fn build_serving(config: Config, serves: Serves) -> Result<Application, ServerError> {
         let readers = (config.max_concurrent_requests.min(16)) as u32;
         let store = open_store(&config, readers).await?;
-        let Swept { partial, orphans } = sweep_orphans(&store, &config.data_dir).await?;
-        if partial + orphans > 0 {
-            tracing::info!(partial, orphans, "removed files left by an earlier crash");
+        let metrics = Arc::new(Metrics::default());
+        let run_store =
+            RunStore::open(&config.run_store, &config.data_dir, metrics.clone()).await?;
+        tracing::info!(runs = %run_store.describe(), "run store open");
+        let Swept {
+            partial,
+            orphans,
+            scratch,
+        } = sweep_orphans(&store, &run_store).await?;
+        if partial + orphans + scratch > 0 {
+            tracing::info!(
+                partial,
+                orphans,
+                scratch,
+                "removed files left by an earlier crash"
+            );
         }
         let (token, hash) = auth::new_token();
         let id = uuid::Uuid::new_v4().to_string();
@@ -131,11 +175,11 @@ impl Application {
         let addr = listener
             .local_addr()
             .map_err(io_err("reading the bound address"))?;
-        let metrics = Arc::new(Metrics::default());
         let runner = Arc::new(JobRunner::new(
             store.clone(),
             JobSettings {
                 data_dir: config.data_dir.clone(),
+                run_store: run_store.clone(),
                 lease: config.lease,
                 estimate: config.estimate.clone(),
                 retry_backoff: config.retry_backoff,
@@ -148,6 +192,7 @@ impl Application {
         ));
         let state = AppState {
             store,
+            run_store,
             uploads: Arc::new(Semaphore::new(config.max_concurrent_uploads)),
             designs: Arc::new(Semaphore::new(1)),
             // One at a time: an analysis takes a core for about a second
@@ -206,6 +251,13 @@ impl Application {
             poll,
         );
         let hints = listen_for_jobs(&self.state.store, self.state.wake.clone()).await;
+        let sweeper = self.state.run_store.sweep_every().map(|every| {
+            spawn_periodic_sweep(
+                self.state.store.clone(),
+                self.state.run_store.clone(),
+                every,
+            )
+        });
         let state = self.state.clone();
         let app = match self.serves {
             Serves::Api => api::router(
@@ -228,6 +280,9 @@ impl Application {
         pool.shutdown(config.shutdown_grace).await;
         if let Some(h) = hints {
             h.abort();
+        }
+        if let Some(sweeper) = sweeper {
+            sweeper.abort();
         }
         self.state.store.close().await;
         served.map_err(io_err("serving"))

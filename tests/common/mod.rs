@@ -23,6 +23,7 @@ use sinscal::store::Store;
 
 pub mod pages;
 pub mod postgres;
+pub mod s3;
 
 pub struct TestApp {
     pub base: String,

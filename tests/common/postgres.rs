@@ -54,7 +54,7 @@ fn private_cluster() -> String {
             )
         });
     let started = Instant::now();
-    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let lines = BufReader::new(child.stdout.take().unwrap()).lines();
     // pg_virtualenv says what it creates on the same stdout.
     let url = lines
         .map_while(Result::ok)
