@@ -4,7 +4,6 @@
 //! test binary's own, made by `pg_virtualenv` (PostgreSQL's packages) and
 //! dropped when the binary exits.
 
-use std::io::{BufRead, BufReader};
 use std::process::{Command, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
@@ -35,16 +34,23 @@ pub async fn fresh_database(prefix: &str) -> String {
 
 /// Starts `pg_virtualenv` holding a cluster open until this process exits
 /// (its shell polls our pid), and reads the connection settings it
-/// exports.
+/// exports from a file: its stdout goes nowhere, so that when this
+/// process is gone its teardown (which prints) still runs to the end and
+/// drops the cluster.
 fn private_cluster() -> String {
     let me = std::process::id();
+    let settings = std::env::temp_dir().join(format!("sinscal-pg-{me}.url"));
+    let _ = std::fs::remove_file(&settings);
     let script = format!(
-        "printf 'postgres://%s:%s@%s:%s/postgres\\n' \"$PGUSER\" \"$PGPASSWORD\" \"$PGHOST\" \"$PGPORT\"; \
-         while kill -0 {me} 2>/dev/null; do sleep 1; done"
+        "printf 'postgres://%s:%s@%s:%s/postgres\\n' \"$PGUSER\" \"$PGPASSWORD\" \"$PGHOST\" \"$PGPORT\" \
+           > {0}.part && mv {0}.part {0}; \
+         while kill -0 {me} 2>/dev/null; do sleep 1; done",
+        settings.display()
     );
-    let mut child = Command::new("pg_virtualenv")
+    let child = Command::new("pg_virtualenv")
         .args(["sh", "-c", &script])
-        .stdout(Stdio::piped())
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()
         .unwrap_or_else(|e| {
@@ -54,13 +60,17 @@ fn private_cluster() -> String {
             )
         });
     let started = Instant::now();
-    let lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    // pg_virtualenv says what it creates on the same stdout.
-    let url = lines
-        .map_while(Result::ok)
-        .find(|l| l.starts_with("postgres://"))
-        .unwrap_or_else(|| panic!("pg_virtualenv started no cluster"));
-    assert!(started.elapsed() < Duration::from_secs(120));
+    let url = loop {
+        if let Ok(text) = std::fs::read_to_string(&settings) {
+            break text.trim().to_string();
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "pg_virtualenv started no cluster (is another one, 15/regress, running?)"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let _ = std::fs::remove_file(&settings);
     // The child outlives this function on purpose: it ends with us.
     std::mem::forget(child);
     url
