@@ -317,25 +317,46 @@ async fn timed_runs() {
     seed(&store, 20, 50, "HIST").await;
     let serials: Vec<String> = (0..20).map(|u| format!("HIST-{u:04}")).collect();
     let n = 8;
+    let (seconds, reads) = sustained(&c, "THR", n, &meta_bin, &bin.data, &serials).await;
+    println!(
+        "sustained: {n} runs (3.2 h, f64le) in {seconds:.1} s on 2 workers = {:.0} runs/hour",
+        n as f64 * 3600.0 / seconds
+    );
+    println!("reads while both workers are busy (50 runs per unit, 4 concurrent clients in a second process): {reads}");
+    let _ = stop.send(());
+    task.await.unwrap();
+}
+
+/// Uploads `n` copies of a run (as units `<prefix>-<k>`) at once and waits
+/// for every result while a second process reads `serials`' history and
+/// repeatability (no reads if `serials` is empty); the seconds from the
+/// first upload to the last result, and the reads' figures.
+async fn sustained(
+    c: &Client,
+    prefix: &str,
+    n: usize,
+    meta: &[u8],
+    data: &Path,
+    serials: &[String],
+) -> (f64, String) {
     let t = Instant::now();
     let mut jobs = Vec::new();
     for k in 0..n {
-        jobs.push(c.upload(&format!("THR-{k}"), &meta_bin, &bin.data).await);
+        jobs.push(c.upload(&format!("{prefix}-{k}"), meta, data).await);
     }
-    let loader = run_load_process(&c, &serials, 8.0);
+    let loader = (!serials.is_empty()).then(|| run_load_process(c, serials, 8.0));
     for j in &jobs {
         c.wait(j["job_id"].as_str().unwrap()).await;
     }
-    let hours = t.elapsed().as_secs_f64() / 3600.0;
-    println!(
-        "sustained: {n} runs (3.2 h, f64le) in {:.1} s on 2 workers = {:.0} runs/hour",
-        hours * 3600.0,
-        n as f64 / hours
-    );
-    let out = loader.wait_with_output().unwrap();
-    println!("reads while both workers are busy (50 runs per unit, 4 concurrent clients in a second process): {}", String::from_utf8_lossy(&out.stdout).trim());
-    let _ = stop.send(());
-    task.await.unwrap();
+    let seconds = t.elapsed().as_secs_f64();
+    let reads = match loader {
+        Some(l) => {
+            let out = l.wait_with_output().unwrap();
+            String::from_utf8_lossy(&out.stdout).trim().to_string()
+        }
+        None => String::new(),
+    };
+    (seconds, reads)
 }
 
 /// Part 4: a database holding 10 000 calibrated runs.
@@ -465,29 +486,22 @@ async fn scale_out() {
         let processes: Vec<Process> = (0..workers)
             .map(|_| Process::start("worker", data.path(), &url).0)
             .collect();
-        let t = Instant::now();
-        let mut jobs = Vec::new();
-        for k in 0..n {
-            jobs.push(
-                c.upload(&format!("THR{workers}-{k}"), &meta_bin, &bin.data)
-                    .await,
-            );
-        }
-        let loader = run_load_process(&c, &serials, 8.0);
-        for j in &jobs {
-            c.wait(j["job_id"].as_str().unwrap()).await;
-        }
-        let hours = t.elapsed().as_secs_f64() / 3600.0;
+        // First alone, then with a second process reading as fast as its
+        // four clients can: on two cores, the reads (and PostgreSQL
+        // answering them) take CPU from the workers.
+        let prefix = format!("ALONE{workers}");
+        let (seconds, _) = sustained(&c, &prefix, n, &meta_bin, &bin.data, &[]).await;
         println!(
-            "PostgreSQL, {workers} worker process(es): {n} runs (3.2 h, f64le) in {:.1} s = {:.0} runs/hour",
-            hours * 3600.0,
-            n as f64 / hours
+            "PostgreSQL, {workers} worker process(es), no reads: {n} runs (3.2 h, f64le) in {seconds:.1} s = {:.0} runs/hour",
+            n as f64 * 3600.0 / seconds
         );
-        let out = loader.wait_with_output().unwrap();
+        let prefix = format!("THR{workers}");
+        let (seconds, reads) = sustained(&c, &prefix, n, &meta_bin, &bin.data, &serials).await;
         println!(
-            "  reads on 10 000 runs meanwhile (4 clients, second process): {}",
-            String::from_utf8_lossy(&out.stdout).trim()
+            "PostgreSQL, {workers} worker process(es), with reads: {n} runs (3.2 h, f64le) in {seconds:.1} s = {:.0} runs/hour",
+            n as f64 * 3600.0 / seconds
         );
+        println!("  reads on 10 000 runs meanwhile (4 clients, second process): {reads}");
         for p in processes {
             p.stop();
         }

@@ -1,7 +1,7 @@
 //! Process-local counters for `GET /metrics`. Queue depth and jobs by state
 //! are read from the database at scrape time (they survive restarts); what
-//! only this process sees (bytes received, job durations, the run store's
-//! latency) is counted here.
+//! only this process sees (bytes received, job durations, the claim's and
+//! the run store's latency) is counted here.
 
 use std::fmt::Write as _;
 use std::sync::Mutex;
@@ -16,6 +16,13 @@ const DURATION_BUCKETS_S: [f64; 11] = [
 /// a run's multipart upload or download seconds to minutes.
 const STORE_BUCKETS_S: [f64; 12] = [
     0.001, 0.005, 0.01, 0.05, 0.1, 0.5, 1.0, 5.0, 10.0, 30.0, 60.0, 300.0,
+];
+
+/// Upper bounds of the claim-latency histogram, seconds: one transaction
+/// on the queue, sub-millisecond on an idle SQLite file, milliseconds on a
+/// PostgreSQL across a network, longer when writers queue for the lock.
+const CLAIM_BUCKETS_S: [f64; 12] = [
+    0.0005, 0.001, 0.0025, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 0.5, 1.0, 5.0,
 ];
 
 /// Bucket counts, sum and count of one histogram series.
@@ -43,6 +50,8 @@ struct Inner {
     storage_full_retries: u64,
     /// Per run-store operation (put, get, delete, list).
     store_ops: [Series<{ STORE_BUCKETS_S.len() }>; 4],
+    /// Per claim outcome (claimed, empty, error).
+    claims: [Series<{ CLAIM_BUCKETS_S.len() }>; 3],
 }
 
 /// How an upload ended.
@@ -65,6 +74,17 @@ pub enum StoreOp {
     Delete = 2,
     /// A listing for the sweep.
     List = 3,
+}
+
+/// What a worker's claim found, for the claim-latency histogram.
+#[derive(Clone, Copy, Debug)]
+pub enum ClaimOutcome {
+    /// A job was claimed.
+    Claimed = 0,
+    /// Nothing was claimable.
+    Empty = 1,
+    /// The database refused or could not be reached.
+    Error = 2,
 }
 
 /// How an attempt at a job ended, for the duration histogram.
@@ -109,6 +129,16 @@ impl Metrics {
     pub fn store_op(&self, op: StoreOp, seconds: f64) {
         let mut inner = self.inner.lock().expect("metrics lock");
         observe(&mut inner.store_ops[op as usize], &STORE_BUCKETS_S, seconds);
+    }
+
+    /// One claim transaction took `seconds`.
+    pub fn claim(&self, outcome: ClaimOutcome, seconds: f64) {
+        let mut inner = self.inner.lock().expect("metrics lock");
+        observe(
+            &mut inner.claims[outcome as usize],
+            &CLAIM_BUCKETS_S,
+            seconds,
+        );
     }
 
     /// The Prometheus text exposition (format 0.0.4), with the database's
@@ -172,6 +202,21 @@ impl Metrics {
                 "sinscal_run_store_seconds",
                 &label,
                 &STORE_BUCKETS_S,
+                series,
+            );
+        }
+        let _ = writeln!(
+            s,
+            "# HELP sinscal_claim_seconds Latency of this process's claims on the job queue, by what they found."
+        );
+        let _ = writeln!(s, "# TYPE sinscal_claim_seconds histogram");
+        for (name, series) in ["claimed", "empty", "error"].iter().zip(&inner.claims) {
+            let label = format!("outcome=\"{name}\"");
+            histogram(
+                &mut s,
+                "sinscal_claim_seconds",
+                &label,
+                &CLAIM_BUCKETS_S,
                 series,
             );
         }

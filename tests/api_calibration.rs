@@ -258,6 +258,11 @@ async fn eight_concurrent_uploads_are_each_calibrated_exactly_once() {
         "{metrics}"
     );
     assert!(metrics.contains("sinscal_queue_depth 0"));
+    // Eight jobs, each claimed once: eight claims that found a job.
+    assert!(
+        metrics.contains("sinscal_claim_seconds_count{outcome=\"claimed\"} 8"),
+        "{metrics}"
+    );
     app.stop().await;
 }
 

@@ -7,9 +7,7 @@
 mod common;
 
 use std::collections::{HashMap, HashSet};
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -21,61 +19,18 @@ use sinscal::io::data::DataFormat;
 use sinscal::model::ErrorParameters;
 use sqlx::Row;
 
-struct Server {
-    child: Child,
-    base: String,
+/// Starts `sinscal serve` on a free port; returns it and the admin token
+/// if this start created one.
+fn start(data: &Path, log: &Path, extra: &[&str]) -> (process::Process, Option<String>) {
+    let mut cmd = process::sinscal(&["serve", "--bind", "127.0.0.1:0", "--data-dir"]);
+    cmd.arg(data).args(extra);
+    process::Process::start(cmd, log)
 }
 
-/// Starts the binary on a free port; returns it and the admin token if
-/// this start created one.
-#[allow(clippy::zombie_processes)]
-fn start(data: &Path, log: &Path, extra: &[&str]) -> (Server, Option<String>) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_sinscal"))
-        .args(["serve", "--bind", "127.0.0.1:0", "--data-dir"])
-        .arg(data)
-        .args(extra)
-        .stdout(Stdio::piped())
-        .stderr(
-            std::fs::OpenOptions::new()
-                .create(true)
-                .append(true)
-                .open(log)
-                .unwrap(),
-        )
-        .spawn()
-        .expect("start sinscal serve");
-    // The caller owns the child and waits for it (sigkill / sigterm).
-    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-    let mut token = None;
-    loop {
-        let line = lines.next().expect("server printed its address").unwrap();
-        if let Some(t) = line.strip_prefix("admin token (shown once, store it now): ") {
-            token = Some(t.to_string());
-        }
-        if let Some(addr) = line.strip_prefix("sinscal listening on ") {
-            return (
-                Server {
-                    child,
-                    base: format!("{addr}/api/v1"),
-                },
-                token,
-            );
-        }
-    }
-}
-
-impl Server {
-    fn sigkill(mut self) {
-        self.child.kill().unwrap();
-        self.child.wait().unwrap();
-    }
-
-    fn sigterm(mut self) {
-        // SAFETY: signalling our own child by its pid.
-        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
-        let status = self.child.wait().unwrap();
-        assert!(status.success(), "server exited with {status}");
-    }
+/// Asks the server to stop and checks that it stopped cleanly.
+fn stop_cleanly(server: process::Process) {
+    let status = server.sigterm();
+    assert!(status.success(), "server exited with {status}");
 }
 
 async fn get_json(http: &reqwest::Client, token: &str, url: &str) -> Value {
@@ -87,24 +42,6 @@ async fn get_json(http: &reqwest::Client, token: &str, url: &str) -> Value {
         .json()
         .await
         .unwrap()
-}
-
-async fn upload(
-    http: &reqwest::Client,
-    base: &str,
-    token: &str,
-    serial: &str,
-    meta: &[u8],
-    data: Vec<u8>,
-) -> reqwest::Result<reqwest::Response> {
-    let form = reqwest::multipart::Form::new()
-        .part("metadata", reqwest::multipart::Part::bytes(meta.to_vec()))
-        .part("data", reqwest::multipart::Part::bytes(data));
-    http.post(format!("{base}/units/{serial}/runs"))
-        .bearer_auth(token)
-        .multipart(form)
-        .send()
-        .await
 }
 
 async fn wait_final(
@@ -134,16 +71,16 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     let logs = tempfile::tempdir().unwrap();
     let log = logs.path().join("server.log");
     let args = ["--workers", "1", "--lease-secs", "1"];
-    let (server, token) = start(data.path(), &log, &args);
+    let (mut server, token) = start(data.path(), &log, &args);
     let token = token.unwrap();
     let http = reqwest::Client::new();
     let dir = tempfile::tempdir().unwrap();
     // 300 s dwells at 100 Hz: a job of seconds, killed as soon as it runs.
     let cfg = sim_config(5, ErrorParameters::paper(), "ten-position-9+9", 300.0);
     let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-0042", None);
-    let r: Value = upload(
+    let r: Value = process::upload_run(
         &http,
-        &server.base,
+        &server.api(),
         &token,
         "RLG-0042",
         &run.metadata,
@@ -154,7 +91,7 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     .json()
     .await
     .unwrap();
-    let job_url = format!("{}/jobs/{}", server.base, r["job_id"].as_str().unwrap());
+    let job_url = format!("{}/jobs/{}", server.api(), r["job_id"].as_str().unwrap());
     loop {
         let job = get_json(&http, &token, &job_url).await;
         if job["state"] == "running" {
@@ -173,7 +110,7 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     let job = wait_final(
         &http,
         &token,
-        &server.base,
+        &server.api(),
         r["job_id"].as_str().unwrap(),
         Duration::from_secs(120),
     )
@@ -185,12 +122,12 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
         &token,
         &format!(
             "{}/runs/{}/result",
-            server.base,
+            server.api(),
             r["run_id"].as_str().unwrap()
         ),
     )
     .await;
-    server.sigterm();
+    stop_cleanly(server);
 
     // The same result as calibrating the file directly.
     let meta = sinscal::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
@@ -255,7 +192,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
     let mut next_upload = 0usize;
     let http = reqwest::Client::new();
     for round in 0..KILLS {
-        let (server, t) = start(data.path(), &log, &args);
+        let (mut server, t) = start(data.path(), &log, &args);
         if t.is_some() {
             token = t;
         }
@@ -265,7 +202,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         for _ in 0..CLIENTS {
             let (http, base, token, stop, acked) = (
                 http.clone(),
-                server.base.clone(),
+                server.api(),
                 token.clone(),
                 stop.clone(),
                 acked.clone(),
@@ -284,7 +221,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
                     let mut body = format!("# upload {k}\n").into_bytes();
                     body.extend_from_slice(&base_csv);
                     let sha = sha256_hex(&body);
-                    match upload(&http, &base, &token, "RLG-0042", &meta, body).await {
+                    match process::upload_run(&http, &base, &token, "RLG-0042", &meta, body).await {
                         Ok(r) if r.status() == 202 => {
                             // Paced, so the final drain stays short.
                             tokio::time::sleep(Duration::from_millis(PACE_MS)).await;
@@ -311,7 +248,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         tokio::time::sleep(wait).await;
         // Was a job running at the moment of the kill?
         let metrics = http
-            .get(format!("{}/metrics", server.base))
+            .get(format!("{}/metrics", server.api()))
             .bearer_auth(&token)
             .send()
             .await
@@ -341,7 +278,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         let job = wait_final(
             &http,
             &token,
-            &server.base,
+            &server.api(),
             &a.job_id,
             Duration::from_secs(300),
         )
@@ -351,7 +288,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
     let all_done = Instant::now();
     loop {
         let m = http
-            .get(format!("{}/metrics", server.base))
+            .get(format!("{}/metrics", server.api()))
             .bearer_auth(&token)
             .send()
             .await
@@ -370,7 +307,7 @@ async fn kill_harness_twenty_sigkills_lose_nothing_acknowledged() {
         );
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
-    server.sigterm();
+    stop_cleanly(server);
 
     // Inspect what is on disk.
     let db = sqlx::SqlitePool::connect(&format!(

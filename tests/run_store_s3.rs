@@ -3,7 +3,8 @@
 //! read, the noise page's read and deletion go through the bucket; the
 //! sweep deletes objects no row names once older than the grace period and
 //! leaves younger ones; a large run goes up in parts and comes back whole;
-//! a missing bucket stops the server with a message naming it.
+//! a missing bucket or refused credentials stop the server with a message
+//! naming what failed.
 
 mod common;
 
@@ -218,18 +219,16 @@ async fn a_large_run_goes_up_in_parts_and_comes_back_whole() {
     store.remove(&blob).await.unwrap();
 }
 
-/// `sinscal serve` with a bucket that does not exist stops at once with
-/// an error naming the bucket, the endpoint and what failed.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn a_missing_bucket_stops_the_server_with_a_clear_error() {
-    let s3 = S3Server::start().await;
+/// Starts `sinscal serve` on `run_store` with `s3`'s settings, expecting
+/// it to stop by itself: its stderr.
+async fn refused_serve(s3: &S3Server, run_store: &str) -> String {
     let data = tempfile::tempdir().unwrap();
     let mut serve = std::process::Command::new(env!("CARGO_BIN_EXE_sinscal"));
     serve
         .args(["serve", "--bind", "127.0.0.1:0", "--workers", "1"])
         .arg("--data-dir")
         .arg(data.path())
-        .args(["--run-store", "s3://sinscal-no-such-bucket/fleet"])
+        .args(["--run-store", run_store])
         .env("RUST_LOG", "error")
         .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::piped())
@@ -248,7 +247,18 @@ async fn a_missing_bucket_stops_the_server_with_a_clear_error() {
     }
     let out = child.wait_with_output().unwrap();
     assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(String::from_utf8_lossy(&out.stdout).is_empty());
+    stderr
+}
+
+/// `sinscal serve` with a bucket that does not exist stops at once with
+/// an error naming the bucket, the endpoint and what failed.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_missing_bucket_stops_the_server_with_a_clear_error() {
+    let s3 = S3Server::start().await;
+    let stderr = refused_serve(&s3, "s3://sinscal-no-such-bucket/fleet").await;
     for needed in [
         "s3://sinscal-no-such-bucket/fleet",
         s3.endpoint.as_str(),
@@ -256,6 +266,25 @@ async fn a_missing_bucket_stops_the_server_with_a_clear_error() {
     ] {
         assert!(stderr.contains(needed), "{needed:?} missing from: {stderr}");
     }
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    assert!(String::from_utf8_lossy(&out.stdout).is_empty());
+}
+
+/// A store that refuses the credentials stops the start with a message
+/// that says so and names the variables to check, never the secret.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn refused_credentials_stop_the_server_with_a_clear_error() {
+    let s3 = S3Server::start_refusing_credentials().await;
+    let stderr = refused_serve(&s3, "s3://sinscal-fleet/line-1").await;
+    for needed in [
+        "s3://sinscal-fleet/line-1",
+        s3.endpoint.as_str(),
+        "access refused",
+        "AWS_ACCESS_KEY_ID",
+    ] {
+        assert!(stderr.contains(needed), "{needed:?} missing from: {stderr}");
+    }
+    for (k, v) in s3.env() {
+        if k == "AWS_SECRET_ACCESS_KEY" {
+            assert!(!stderr.contains(&v), "the secret leaked: {stderr}");
+        }
+    }
 }

@@ -9,9 +9,7 @@
 mod common;
 
 use std::collections::{BTreeMap, HashMap};
-use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
-use std::process::{Child, Command, Stdio};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -28,12 +26,10 @@ enum Kind {
     Worker,
 }
 
-/// One process of the deployment and how to start it again.
-struct Process {
+/// One process of the deployment.
+struct Member {
     kind: Kind,
-    child: Child,
-    /// `http://host:port`.
-    addr: String,
+    process: process::Process,
 }
 
 /// The settings every process of the deployment shares.
@@ -52,17 +48,16 @@ struct Deployment {
 impl Deployment {
     /// Starts a process; returns it with the admin token if this start
     /// created the first one.
-    #[allow(clippy::zombie_processes)]
-    fn start(&self, kind: Kind, index: usize) -> (Process, Option<String>) {
+    fn start(&self, kind: Kind, index: usize) -> (Member, Option<String>) {
         let (command, workers) = match kind {
             Kind::Api => ("serve", "0"),
             Kind::Worker => ("worker", "1"),
         };
         let log = self.logs.join(format!("{command}-{index}.log"));
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_sinscal"));
-        cmd.args([command, "--bind", "127.0.0.1:0", "--workers", workers])
-            .args(["--lease-secs", "1", "--max-attempts", "50"])
-            .args(["--database-url", &self.database_url]);
+        let mut cmd = process::sinscal(&[command, "--bind", "127.0.0.1:0", "--workers", workers]);
+        cmd.args(["--lease-secs", "1", "--max-attempts", "50"])
+            .args(["--database-url", &self.database_url])
+            .env("RUST_LOG", "info,sqlx=warn");
         match &self.object_store {
             None => cmd.arg("--data-dir").arg(&self.data_dir),
             Some((run_store, env)) => cmd
@@ -71,66 +66,16 @@ impl Deployment {
                 .args(["--run-store", run_store])
                 .envs(env.iter().map(|(k, v)| (*k, v.as_str()))),
         };
-        let mut child = cmd
-            .env("RUST_LOG", "info,sqlx=warn")
-            .stdout(Stdio::piped())
-            .stderr(
-                std::fs::OpenOptions::new()
-                    .create(true)
-                    .append(true)
-                    .open(&log)
-                    .unwrap(),
-            )
-            .spawn()
-            .expect("start sinscal");
-        let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
-        let mut token = None;
-        loop {
-            let line = lines
-                .next()
-                .unwrap_or_else(|| panic!("{command} {index} exited; see {}", log.display()))
-                .unwrap();
-            if let Some(t) = line.strip_prefix("admin token (shown once, store it now): ") {
-                token = Some(t.to_string());
-            }
-            if let Some((_, addr)) = line.split_once(" listening on ") {
-                let addr = addr.to_string();
-                return (Process { kind, child, addr }, token);
-            }
-        }
+        let (process, token) = process::Process::start(cmd, &log);
+        (Member { kind, process }, token)
     }
 }
 
-impl Process {
-    fn sigkill(&mut self) {
-        self.child.kill().unwrap();
-        self.child.wait().unwrap();
-    }
-
-    fn sigterm(mut self) {
-        // SAFETY: signalling our own child by its pid.
-        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
-        let status = self.child.wait().unwrap();
+impl Member {
+    fn sigterm(self) {
+        let status = self.process.sigterm();
         assert!(status.success(), "{:?} exited with {status}", self.kind);
     }
-}
-
-async fn upload(
-    http: &reqwest::Client,
-    addr: &str,
-    token: &str,
-    meta: &[u8],
-    body: Vec<u8>,
-) -> reqwest::Result<reqwest::Response> {
-    let form = reqwest::multipart::Form::new()
-        .part("metadata", reqwest::multipart::Part::bytes(meta.to_vec()))
-        .part("data", reqwest::multipart::Part::bytes(body));
-    http.post(format!("{addr}/api/v1/units/RLG-0042/runs"))
-        .bearer_auth(token)
-        .multipart(form)
-        .timeout(Duration::from_secs(60))
-        .send()
-        .await
 }
 
 /// An acknowledged upload.
@@ -195,7 +140,7 @@ where
         processes
             .iter()
             .filter(|p| p.kind == Kind::Api)
-            .map(|p| p.addr.clone())
+            .map(|p| p.process.addr.clone())
             .collect(),
     ));
 
@@ -233,7 +178,10 @@ where
                         let apis = apis.lock().unwrap();
                         apis[(c + attempt) % apis.len()].clone()
                     };
-                    match upload(&http, &addr, &token, &meta, body.clone()).await {
+                    let api = format!("{addr}/api/v1");
+                    match process::upload_run(&http, &api, &token, "RLG-0042", &meta, body.clone())
+                        .await
+                    {
                         Ok(r) if r.status() == 202 || r.status() == 200 => {
                             let v: Value = r.json().await.unwrap();
                             acked.lock().unwrap().push(Acked {
@@ -259,18 +207,18 @@ where
         tokio::time::sleep(Duration::from_millis(rng.gen_range(500..2500))).await;
         let i = rng.gen_range(0..processes.len());
         let kind = processes[i].kind;
-        processes[i].sigkill();
+        processes[i].process.sigkill();
         *killed
             .entry(if kind == Kind::Api { "api" } else { "worker" })
             .or_default() += 1;
         let index = i;
         let (p, _) = deployment.start(kind, index);
         if kind == Kind::Api {
-            let old = processes[i].addr.clone();
+            let old = processes[i].process.addr.clone();
             let mut apis = apis.lock().unwrap();
             for a in apis.iter_mut() {
                 if *a == old {
-                    *a = p.addr.clone();
+                    *a = p.process.addr.clone();
                 }
             }
         }
@@ -418,8 +366,7 @@ where
 /// status and what it printed on stderr.
 fn refused_start(database_url: &str) -> String {
     let data = tempfile::tempdir().unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_sinscal"))
-        .args(["serve", "--bind", "127.0.0.1:0", "--workers", "0"])
+    let out = process::sinscal(&["serve", "--bind", "127.0.0.1:0", "--workers", "0"])
         .arg("--data-dir")
         .arg(data.path())
         .args(["--database-url", database_url])

@@ -19,7 +19,7 @@ use tokio_util::sync::CancellationToken;
 use crate::calib::{CalibError, CalibrationResult, EstimateOptions, Progress};
 use crate::diagnose::{DiagnoseError, DiagnoseOptions};
 use crate::io::meta::RunMetadata;
-use crate::metrics::{JobOutcome, Metrics};
+use crate::metrics::{ClaimOutcome, JobOutcome, Metrics};
 use crate::pipeline::{calibrate_file, diagnose_file};
 use crate::runstore::{LocalCopy, RunStore};
 use crate::store::{Claim, JobKind, JobState, OnInadequate, Store, StoreError};
@@ -174,7 +174,15 @@ impl JobRunner {
     /// claimable.
     pub async fn try_run_next_job(&self, worker: usize) -> Result<Outcome, JobError> {
         let owner = format!("{}/{worker}", self.instance);
-        let Some(claim) = self.store.claim_job(&owner, self.settings.lease).await? else {
+        let asked = Instant::now();
+        let claimed = self.store.claim_job(&owner, self.settings.lease).await;
+        let outcome = match &claimed {
+            Ok(Some(_)) => ClaimOutcome::Claimed,
+            Ok(None) => ClaimOutcome::Empty,
+            Err(_) => ClaimOutcome::Error,
+        };
+        self.metrics.claim(outcome, asked.elapsed().as_secs_f64());
+        let Some(claim) = claimed? else {
             return Ok(Outcome::Empty);
         };
         let job_id = claim.fence.job_id.clone();

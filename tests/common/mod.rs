@@ -23,6 +23,7 @@ use sinscal::store::Store;
 
 pub mod pages;
 pub mod postgres;
+pub mod process;
 pub mod s3;
 
 pub struct TestApp {
@@ -103,17 +104,8 @@ pub const POSTGRES_ENV: &str = "SINSCAL_TEST_DATABASE_URL";
 /// server, so every test starts from the migrations as on SQLite. The
 /// databases are left to the throwaway cluster.
 pub async fn test_database_url() -> Option<String> {
-    use sqlx::{Connection, Executor};
     let admin = std::env::var(POSTGRES_ENV).ok()?;
-    let name = format!("sinscal_test_{}", uuid::Uuid::new_v4().simple());
-    let mut conn = sqlx::PgConnection::connect(&admin)
-        .await
-        .unwrap_or_else(|e| panic!("{POSTGRES_ENV}: cannot connect: {e}"));
-    conn.execute(format!("CREATE DATABASE {name}").as_str())
-        .await
-        .expect("create a test database");
-    let _ = conn.close().await;
-    Some(database_in(&admin, &name))
+    Some(postgres::create_database(&admin, "sinscal_test").await)
 }
 
 /// `postgres://u:p@h:port/any?opts` with the database `name`.

@@ -19,17 +19,22 @@ pub fn admin_url() -> String {
 
 /// A new, empty database; its URL.
 pub async fn fresh_database(prefix: &str) -> String {
+    create_database(&admin_url(), prefix).await
+}
+
+/// Creates an empty database named `<prefix>_<uuid>` on the server `admin`
+/// names; its URL.
+pub async fn create_database(admin: &str, prefix: &str) -> String {
     use sqlx::{Connection, Executor};
-    let admin = admin_url();
     let name = format!("{prefix}_{}", uuid::Uuid::new_v4().simple());
-    let mut conn = sqlx::PgConnection::connect(&admin)
+    let mut conn = sqlx::PgConnection::connect(admin)
         .await
-        .unwrap_or_else(|e| panic!("PostgreSQL at {admin}: {e}"));
+        .unwrap_or_else(|e| panic!("PostgreSQL at {admin}: cannot connect: {e}"));
     conn.execute(format!("CREATE DATABASE {name}").as_str())
         .await
-        .unwrap();
+        .unwrap_or_else(|e| panic!("PostgreSQL at {admin}: create database {name}: {e}"));
     let _ = conn.close().await;
-    database_in(&admin, &name)
+    database_in(admin, &name)
 }
 
 /// Starts `pg_virtualenv` holding a cluster open until this process exits

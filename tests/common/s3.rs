@@ -44,13 +44,18 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// `moto_server`, or moto's module when its script is not on PATH.
-fn spawn_moto(port: u16) -> Child {
+/// `moto_server`, or moto's module when its script is not on PATH; with
+/// `check_credentials`, moto authenticates every request against its own
+/// (empty) IAM, so that any access key is refused as unknown.
+fn spawn_moto(port: u16, check_credentials: bool) -> Child {
     let port = port.to_string();
     let quiet = |c: &mut Command| {
         c.stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null());
+        if check_credentials {
+            c.env("INITIAL_NO_AUTH_ACTION_COUNT", "0");
+        }
     };
     let mut script = Command::new("moto_server");
     script.args(["-H", "127.0.0.1", "-p", &port]);
@@ -78,10 +83,20 @@ impl S3Server {
                 child: None,
             };
         }
+        S3Server::spawn(false).await
+    }
+
+    /// A new moto server that refuses every access key (none is known to
+    /// it), as a real store refuses wrong credentials.
+    pub async fn start_refusing_credentials() -> S3Server {
+        S3Server::spawn(true).await
+    }
+
+    async fn spawn(check_credentials: bool) -> S3Server {
         let port = free_port();
         let mut server = S3Server {
             endpoint: format!("http://127.0.0.1:{port}"),
-            child: Some(spawn_moto(port)),
+            child: Some(spawn_moto(port, check_credentials)),
         };
         let http = reqwest::Client::new();
         let start = Instant::now();
