@@ -9,7 +9,9 @@ python3 -m pip install --quiet "schemathesis==4.*" >&2 || python3 -m pip install
 ST="$(python3 -c 'import sysconfig; print(sysconfig.get_path("scripts"))')/st"
 [ -x "$ST" ] || ST=st
 
-cargo build --quiet --bin sinscal
+# The test profile: after `cargo test` (as in CI) the binary is already
+# built; the dev profile would compile the crate a second time.
+cargo build --quiet --profile test --bin sinscal
 DATA="$(mktemp -d)"
 OUT="$DATA/stdout.txt"
 ./target/debug/sinscal serve --data-dir "$DATA" --bind 127.0.0.1:0 --workers 1 --design-time-limit-secs 5 >"$OUT" 2>"$DATA/server.log" &

@@ -10,7 +10,7 @@
 //! 300; `-- --manual`).
 
 mod common;
-#[path = "../tests/diagnosis_support/mod.rs"]
+#[path = "../tests/suite/diagnosis_support/mod.rs"]
 mod diagnosis_support;
 
 use std::collections::BTreeMap;

@@ -1,6 +1,6 @@
 //! The discrepancy workflow across the realistic range of every SPEC §3
 //! effect: each effect at the low and the high end of its range, several
-//! seeds each, on the test runs of `tests/diagnose_effects.rs` (the 9+9
+//! seeds each, on the test runs of `tests/suite/diagnose_effects.rs` (the 9+9
 //! scheme with 600 s dwells at 20 Hz, the both-ways scheme for the scale
 //! asymmetry; paper truth, navigation-grade noise). Per case: how often
 //! the acceptance criteria all hold, how often the right effect is named
@@ -12,7 +12,7 @@
 //! turns drawn from the seed) and records at 100 Hz).
 
 mod common;
-#[path = "../tests/diagnosis_support/mod.rs"]
+#[path = "../tests/suite/diagnosis_support/mod.rs"]
 mod diagnosis_support;
 
 use diagnosis_support::{acceptance, both_ways, by_hand, config, nine_plus_nine, run_quiet};

@@ -8,10 +8,10 @@
 //! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone;
 //! `--by-hand` turns every scheme by hand (SPEC §4 flips drawn from the
 //! seed), e.g. `-- --by-hand --dwell 300 --rate 50 --effects 0` for the
-//! clean hand-turned runs of `tests/model_check.rs` over more seeds.
+//! clean hand-turned runs of `tests/suite/model_check.rs` over more seeds.
 
 mod common;
-#[path = "../tests/model_check_support/mod.rs"]
+#[path = "../tests/suite/model_check_support/mod.rs"]
 mod support;
 
 use std::time::Instant;

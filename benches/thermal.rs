@@ -1,7 +1,7 @@
 //! Thermal model from soaked runs over many seeds (`cargo bench --bench
 //! thermal [-- SEEDS] [soak|ramp]`, default 20 seeds, both parts): five soaks of `ten-position` (600 s
 //! dwells, 20 Hz, navigation-grade noise) at −20, 5, 25, 45, 65 °C of the
-//! unit of `tests/thermal_support` (16 linear, 3 quadratic coefficients),
+//! unit of `tests/suite/thermal_support` (16 linear, 3 quadratic coefficients),
 //! seeds 1..=SEEDS. Prints RMS err/σ of the 25 °C values, the linear and
 //! the quadratic coefficients; the seeds with a quadratic term invented or
 //! missed; the seeds with every coefficient within 3σ; and the check's
@@ -15,7 +15,7 @@
 //! three k and the 25 °C values; the seeds with every coefficient within
 //! 3σ, with the 25 °C values within Table 1, and whose model check passes.
 
-#[path = "../tests/thermal_support/mod.rs"]
+#[path = "../tests/suite/thermal_support/mod.rs"]
 mod thermal_support;
 
 use std::time::Instant;

@@ -19,7 +19,7 @@
 //!   `dwell_window_s` (10 s) lose nothing measurable. With 10 s windows
 //!   throughout, the misalignments came out 5–37 % worse than `plan`'s;
 //!   with the split, every parameter is within 3.6 %
-//!   (`tests/design_objective.rs`).
+//!   (`tests/suite/design_objective.rs`).
 //! - **In a turn** the columns follow the attitude, so the turn is cut
 //!   into steps of at most 0.1 s and 1° of rotation, each evaluated at its
 //!   midpoint from the trajectory's closed-form kinematics, and propagated

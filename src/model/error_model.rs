@@ -35,7 +35,7 @@ impl ErrorParameters {
 /// is exact for a specific force constant over the record (the dwells) and
 /// off by D_a times the within-record variance of f times Δt during
 /// rotations: at most 2.4e-11 m/s a record on 10 °/s turns at 100 Hz with
-/// D_a twice the paper's (tests/compensation_round_trip.rs), far below the
+/// D_a twice the paper's (tests/suite/compensation_round_trip.rs), far below the
 /// accelerometer noise of a record.
 #[derive(Clone, Debug)]
 pub struct Compensator {

@@ -325,7 +325,7 @@ impl Store {
 impl Store {
     /// The store a unit test works on: SQLite at `db_path`, or, when
     /// `SINSCAL_TEST_DATABASE_URL` names a PostgreSQL server, a new
-    /// database there (the suite's second engine, as in `tests/common`).
+    /// database there (the suite's second engine, as in `tests/suite/common`).
     pub(crate) async fn open_for_test(db_path: &Path) -> Store {
         use sqlx::Connection;
         let Ok(admin) = std::env::var("SINSCAL_TEST_DATABASE_URL") else {

@@ -1,4 +1,4 @@
-//! The browser client of `tests/common/browser.rs`, checked against a small
+//! The browser client of `tests/suite/common/browser.rs`, checked against a small
 //! page server started here: a form with a file upload, the console,
 //! an HttpOnly cookie, screenshots, and that no browser process outlives
 //! the client. One browser for all of it: Chromium's start is the cost.

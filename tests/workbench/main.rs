@@ -4,9 +4,9 @@
 //! WebDriver client those drive Chromium with, against a page server of
 //! its own (`browser_client`).
 
-#[path = "../common/mod.rs"]
+#[path = "../suite/common/mod.rs"]
 mod common;
-#[path = "../thermal_support/mod.rs"]
+#[path = "../suite/thermal_support/mod.rs"]
 mod thermal_support;
 
 mod browser_client;

@@ -6,7 +6,7 @@
 //! exactly once, to the result of calibrating its file directly, every run
 //! row has its file, and no job ran to completion twice.
 
-mod common;
+use crate::common;
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! The discrepancy workflow as a server job: queue it for a calibrated
 //! run, follow the job, read the report and its gap plot.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 
@@ -15,7 +15,7 @@ use sinscal::sim::{Noise, Scheme};
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn diagnose_job_names_accel_delay() {
     // Diagnosis on request only: the run below fails its model check, which
-    // would otherwise queue a diagnose job by itself (tests/api_model_check.rs).
+    // would otherwise queue a diagnose job by itself (tests/suite/api_model_check.rs).
     let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
     let dir = tempfile::tempdir().unwrap();
     // The 9+9 scheme with 120 s dwells at 20 Hz: short enough to run in

@@ -1,7 +1,7 @@
 //! On clean runs (ten seeds) nothing is named and
 //! the gap sits at the noise floor.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::diagnose::Verdict;

@@ -6,7 +6,7 @@
 //!   SPEC §3 effect, added to the records here) is outside the library:
 //!   the gap is significant and the verdict must say it is unexplained.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use std::sync::atomic::AtomicBool;
 

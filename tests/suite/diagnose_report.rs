@@ -4,7 +4,7 @@
 //! twice that size is; and the same thresholds before any data exists
 //! (`plan --detect`), which agree with what a run of the scheme reports.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::calib::plan::PlanInput;

@@ -8,7 +8,7 @@
 //! navigation-grade noise); the full-size figures come from
 //! `cargo bench --bench accuracy -- --raw`.
 
-mod table1_support;
+use crate::table1_support;
 
 use rand::SeedableRng;
 use sinscal::calib::segment::{SegmentKind, Segmenter};

@@ -6,9 +6,8 @@
 //! refusal outside it; and a run whose bias jumped flagged by the check.
 //! Over 10 and 20 seeds: `cargo bench --bench thermal`.
 
-#[path = "table1_support/mod.rs"]
-mod table1_support;
-mod thermal_support;
+use crate::table1_support;
+use crate::thermal_support;
 
 use sinscal::calib::{CalibrationResult, ParameterEstimate};
 use sinscal::model::{ErrorParameters, PARAMETERS};

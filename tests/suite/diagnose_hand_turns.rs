@@ -12,7 +12,7 @@
 //! three seconds, and at 20 Hz the strapdown integration itself leaves a
 //! velocity error during flips that a clean run shows as z ≈ 15.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::diagnose::{DiagnoseReport, Remainder, Verdict};

@@ -8,9 +8,8 @@
 //! passes. Without them the result proposes them, and the 25 °C values
 //! are off. Over 20 seeds: `cargo bench --bench thermal`.
 
-#[path = "table1_support/mod.rs"]
-mod table1_support;
-mod thermal_support;
+use crate::table1_support;
+use crate::thermal_support;
 
 use std::sync::atomic::AtomicBool;
 

@@ -6,7 +6,7 @@
 //! a missing bucket or refused credentials stop the server with a message
 //! naming what failed.
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 use std::sync::Arc;

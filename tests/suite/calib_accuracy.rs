@@ -4,7 +4,7 @@
 //! `ten-position-9+9` with 600 s dwells, 100 Hz, ARW 0.0003 deg/√h,
 //! VRW 5 µg/√Hz. Bounds are the paper's Table 1 accuracies.
 
-mod table1_support;
+use crate::table1_support;
 
 use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::sources::calibrate_in_memory;

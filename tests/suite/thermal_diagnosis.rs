@@ -1,11 +1,11 @@
 //! The discrepancy workflow's temperature candidate (SPEC §3a): a run whose
 //! chamber rises 2 °C/min from 10 to 30 °C and holds, of a unit whose
 //! parameters move with temperature and whose gyro biases follow Ṫ (the
-//! truth of `tests/thermal_support`), has its gap named `thermal` and
+//! truth of `tests/suite/thermal_support`), has its gap named `thermal` and
 //! shrunk to the noise; the same run of a unit without a temperature
 //! dependence names nothing.
 
-mod thermal_support;
+use crate::thermal_support;
 
 use std::sync::atomic::AtomicBool;
 

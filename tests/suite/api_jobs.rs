@@ -2,7 +2,7 @@
 //! cancelling a running job, retries that keep their error, fencing of a
 //! worker whose lease was reclaimed, hand-back at shutdown.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

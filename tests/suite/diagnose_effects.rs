@@ -3,7 +3,7 @@
 //! ≥ 90 % and ends within 1.2× the noise floor, and the 24 base
 //! parameters come back inside the paper's Table 1 bounds.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::model::effects::{BiasDrift, LeverArms};

@@ -3,7 +3,7 @@
 //! built here, a run written by `sinscal simulate` (white ARW and VRW), and
 //! the same through the server's `GET /runs/{id}/noise`.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 use std::sync::atomic::AtomicBool;

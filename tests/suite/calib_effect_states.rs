@@ -6,8 +6,8 @@
 //! parameters within Table 1; on a clean run every effect state is
 //! consistent with zero.
 
-mod diagnosis_support;
-mod table1_support;
+use crate::diagnosis_support;
+use crate::table1_support;
 
 use diagnosis_support::{by_hand, config, nine_plus_nine, strong_effects, HAND_RATE_HZ};
 use sinscal::calib::sources::calibrate_in_memory;

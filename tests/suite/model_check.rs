@@ -3,7 +3,7 @@
 //! the low end of its realistic size is flagged in most runs, at twice
 //! that size in every run.
 //!
-//! Runs: `tests/model_check_support` (the paper's 9+9 scheme, both ways
+//! Runs: `tests/suite/model_check_support` (the paper's 9+9 scheme, both ways
 //! for the asymmetry; 600 s dwells at 20 Hz: the noise densities, not the
 //! rate, set what a run can see). Each statistic here is over a few seeds
 //! (ten clean runs a grade, five effect runs a size); the same statistics
@@ -12,7 +12,7 @@
 //! the false-alarm rate over many more clean runs `cargo bench --bench
 //! model_check -- --clean 1000 --effects 0`.
 
-mod model_check_support;
+use crate::model_check_support;
 
 use std::thread;
 

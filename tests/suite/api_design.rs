@@ -2,7 +2,7 @@
 //! JSON; stations are refused, and so is a malformed request, with a
 //! problem naming what is wrong.
 
-mod common;
+use crate::common;
 
 use common::{problem, spawn_app_with};
 use reqwest::StatusCode;
@@ -59,7 +59,7 @@ async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
     assert!(detail.contains("detect") && detail.contains("ms"), "{p}");
 
     // A loose goal at tactical-grade noise and a search of up to 10 turns:
-    // a quick design (the search itself is `tests/design_search.rs`'s).
+    // a quick design (the search itself is `tests/suite/design_search.rs`'s).
     let body = json!({"target": "table1", "tighten": 0.2, "arw_deg_rt_h": 0.001,
                       "vrw_ug_rt_hz": 10, "min_dwell_s": 60, "max_turns": 10});
     let r = post(&engineer, body).await.unwrap();

@@ -4,7 +4,7 @@
 //! flight, then checks that nothing acknowledged was lost or duplicated and
 //! nothing half-written remains.
 
-mod common;
+use crate::common;
 
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};

@@ -2,7 +2,7 @@
 //! line or record and leaves nothing behind; re-uploads return the same
 //! run; limits, auth and a full queue answer as documented.
 
-mod common;
+use crate::common;
 
 use std::io::Write;
 

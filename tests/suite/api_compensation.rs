@@ -1,7 +1,7 @@
 //! `GET /runs/{id}/compensation`: the compensation file of a run's result,
 //! as JSON or CSV, for engineers; 404 until the run has a result.
 
-mod common;
+use crate::common;
 
 use common::*;
 use reqwest::StatusCode;

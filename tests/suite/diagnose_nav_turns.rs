@@ -3,7 +3,7 @@
 //! turns are 10° from any body axis, so the scheme is reconstructed in n.
 //! A clean run names nothing; a delay is named and fitted.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::diagnose::Verdict;

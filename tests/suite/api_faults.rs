@@ -2,7 +2,7 @@
 //! uploads, stations reading each other's runs, and the small refusals
 //! (oversized heads, bad roles, runs too short to calibrate).
 
-mod common;
+use crate::common;
 
 use std::io::{Read, Write};
 use std::net::TcpStream;

@@ -3,8 +3,8 @@
 //! truths and with statistics computed here. Eight clients upload at once
 //! and every run is calibrated exactly once.
 
-mod common;
-mod thermal_support;
+use crate::common;
+use crate::thermal_support;
 
 use std::time::Duration;
 

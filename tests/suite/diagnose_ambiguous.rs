@@ -12,7 +12,7 @@
 //! scale factor itself (each |Δθ_x| is Δθ_x), so it explains nothing and
 //! an accelerometer drift is named outright.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::*;
 use sinscal::diagnose::candidates::values_in;

@@ -5,7 +5,7 @@
 //! filter's σ on simulated runs of that start must be within 10 % of the
 //! plan's for every parameter.
 
-mod diagnosis_support;
+use crate::diagnosis_support;
 
 use diagnosis_support::nav_turns;
 use nalgebra::Vector3;

@@ -3,7 +3,7 @@
 //! history views, and gets a diagnose job by itself; a clean run is clear
 //! and gets none.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 

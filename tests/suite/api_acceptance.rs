@@ -4,7 +4,7 @@
 //! the run, result, history and unit views carry and filter on, and that
 //! follows the product type's current limits.
 
-mod common;
+use crate::common;
 
 use std::time::Duration;
 
