@@ -11,6 +11,8 @@
 //! clean hand-turned runs of `tests/suite/model_check.rs` over more seeds.
 
 mod common;
+#[path = "../tests/suite/diagnosis_support/mod.rs"]
+mod diagnosis_support;
 #[path = "../tests/suite/model_check_support/mod.rs"]
 mod support;
 

@@ -4,10 +4,9 @@
 
 #![allow(dead_code)]
 
-// The test runs' site and schemes are the discrepancy workflow's.
-#[path = "../diagnosis_support/mod.rs"]
-mod diagnosis_support;
-pub use diagnosis_support::{both_ways, nine_plus_nine};
+// The test runs' site and schemes are the discrepancy workflow's (the
+// crate that includes this module declares `diagnosis_support` beside it).
+pub use super::diagnosis_support::{both_ways, nine_plus_nine};
 
 use sinscal::calib::sources::calibrate_simulated;
 use sinscal::calib::{CalibrationResult, EstimateOptions, ModelCheck};
