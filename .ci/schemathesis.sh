@@ -9,9 +9,11 @@ python3 -m pip install --quiet "schemathesis==4.*" >&2 || python3 -m pip install
 ST="$(python3 -c 'import sysconfig; print(sysconfig.get_path("scripts"))')/st"
 [ -x "$ST" ] || ST=st
 
-# The test profile: after `cargo test` (as in CI) the binary is already
-# built; the dev profile would compile the crate a second time.
-cargo build --quiet --profile test --bin sinscal
+# The binary as the integration tests build it: after `cargo test` (as in
+# CI) it is already there. `cargo build` would compile the crate a second
+# time, since without the dev-dependencies some shared dependencies get
+# other features.
+cargo test --quiet --no-run --test suite
 DATA="$(mktemp -d)"
 OUT="$DATA/stdout.txt"
 ./target/debug/sinscal serve --data-dir "$DATA" --bind 127.0.0.1:0 --workers 1 --design-time-limit-secs 5 >"$OUT" 2>"$DATA/server.log" &

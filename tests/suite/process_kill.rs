@@ -130,15 +130,7 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     stop_cleanly(server);
 
     // The same result as calibrating the file directly.
-    let meta = sinscal::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
-    let direct = sinscal::pipeline::calibrate_file(
-        &run.data,
-        &meta,
-        &sinscal::calib::EstimateOptions::default(),
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let direct = calibrate_directly(&run);
     // Equal to the last bits the estimator itself is reproducible to (its
     // floating-point sums may associate differently between runs).
     assert_eq!(direct.parameters.len(), 24);

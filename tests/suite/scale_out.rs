@@ -10,7 +10,6 @@ use crate::common;
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -341,15 +340,7 @@ where
     }
 
     // The results are the file's own: the uploads differ only by a comment.
-    let meta = sinscal::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
-    let direct = sinscal::pipeline::calibrate_file(
-        &run.data,
-        &meta,
-        &sinscal::calib::EstimateOptions::default(),
-        &mut |_| {},
-        &AtomicBool::new(false),
-    )
-    .unwrap();
+    let direct = calibrate_directly(&run);
     for result in &results {
         for (name, p) in &direct.parameters {
             let v = result["parameters"][name]["value"].as_f64().unwrap();

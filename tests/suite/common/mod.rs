@@ -130,6 +130,20 @@ pub struct SimRun {
     pub truth: ErrorParameters,
 }
 
+/// The result of calibrating `run`'s file directly (default options, as a
+/// worker does), for comparing with what a server stored.
+pub fn calibrate_directly(run: &SimRun) -> sinscal::calib::CalibrationResult {
+    let meta = sinscal::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
+    sinscal::pipeline::calibrate_file(
+        &run.data,
+        &meta,
+        &sinscal::calib::EstimateOptions::default(),
+        &mut |_| {},
+        &std::sync::atomic::AtomicBool::new(false),
+    )
+    .unwrap()
+}
+
 pub fn sim_config(seed: u64, params: ErrorParameters, scheme: &str, dwell_s: f64) -> SimConfig {
     SimConfig {
         site: Site::REFERENCE,
