@@ -33,17 +33,6 @@ fn stop_cleanly(server: process::Process) {
     assert!(status.success(), "server exited with {status}");
 }
 
-async fn get_json(http: &reqwest::Client, token: &str, url: &str) -> Value {
-    http.get(url)
-        .bearer_auth(token)
-        .send()
-        .await
-        .unwrap()
-        .json()
-        .await
-        .unwrap()
-}
-
 async fn wait_final(
     http: &reqwest::Client,
     token: &str,
@@ -53,7 +42,7 @@ async fn wait_final(
 ) -> Value {
     let start = Instant::now();
     loop {
-        let job = get_json(http, token, &format!("{base}/jobs/{job_id}")).await;
+        let job = process::get_json(http, token, &format!("{base}/jobs/{job_id}")).await;
         if matches!(
             job["state"].as_str(),
             Some("succeeded" | "failed" | "dead_letter" | "cancelled")
@@ -93,7 +82,7 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     .unwrap();
     let job_url = format!("{}/jobs/{}", server.api(), r["job_id"].as_str().unwrap());
     loop {
-        let job = get_json(&http, &token, &job_url).await;
+        let job = process::get_json(&http, &token, &job_url).await;
         if job["state"] == "running" {
             break;
         }
@@ -117,7 +106,7 @@ async fn sigkill_mid_job_then_restart_finishes_it_with_the_same_result() {
     .await;
     assert_eq!(job["state"], "succeeded", "{job}");
     assert_eq!(job["attempts"], 2, "the killed attempt counts: {job}");
-    let result = get_json(
+    let result = process::get_json(
         &http,
         &token,
         &format!(

@@ -243,15 +243,8 @@ where
     let mut results = Vec::new();
     for a in by_run.values() {
         loop {
-            let job: Value = http
-                .get(format!("{api}/api/v1/jobs/{}", a.job_id))
-                .bearer_auth(&token)
-                .send()
-                .await
-                .unwrap()
-                .json()
-                .await
-                .unwrap();
+            let job =
+                process::get_json(&http, &token, &format!("{api}/api/v1/jobs/{}", a.job_id)).await;
             if job["state"] == "succeeded" {
                 break;
             }
@@ -265,15 +258,12 @@ where
             );
             tokio::time::sleep(Duration::from_millis(200)).await;
         }
-        let result: Value = http
-            .get(format!("{api}/api/v1/runs/{}/result", a.run_id))
-            .bearer_auth(&token)
-            .send()
-            .await
-            .unwrap()
-            .json()
-            .await
-            .unwrap();
+        let result = process::get_json(
+            &http,
+            &token,
+            &format!("{api}/api/v1/runs/{}/result", a.run_id),
+        )
+        .await;
         results.push(result);
     }
     for p in processes {

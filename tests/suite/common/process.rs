@@ -75,6 +75,18 @@ impl Process {
     }
 }
 
+/// `GET url` with `token`, its JSON body.
+pub async fn get_json(http: &reqwest::Client, token: &str, url: &str) -> serde_json::Value {
+    http.get(url)
+        .bearer_auth(token)
+        .send()
+        .await
+        .unwrap()
+        .json()
+        .await
+        .unwrap()
+}
+
 /// Uploads a run (metadata and data bytes) for `serial` to the API at
 /// `api` (`…/api/v1`); the answer as it came, or the transport's error
 /// (a process killed mid-upload).
