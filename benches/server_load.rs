@@ -15,6 +15,8 @@
 //! The second process is this binary again, started with `load`.
 //! `cargo bench --bench server_load -- --reads-only` runs part 4 alone.
 
+mod common;
+
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -24,29 +26,9 @@ use sinscal::calib::ParameterEstimate;
 use sinscal::config::Config;
 use sinscal::io::data::DataFormat;
 use sinscal::io::run::write_simulated_run;
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::Site;
+use sinscal::model::PARAMETERS;
 use sinscal::server::Application;
-use sinscal::sim::{Noise, Scheme, SimConfig};
 use sinscal::store::{NewRun, RunFile, Store};
-
-fn sim(seed: u64) -> SimConfig {
-    SimConfig {
-        site: Site::REFERENCE,
-        sample_rate_hz: 100.0,
-        scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
-        params: ErrorParameters::paper(),
-        effects: Effects::none(),
-        noise: Noise {
-            gyro_arw_deg_rt_h: 0.0003,
-            accel_vrw_ug_rt_hz: 5.0,
-        },
-        initial_attitude_error_deg: [0.1, -0.1, 2.0],
-        seed,
-        thermal: None,
-        temperature: None,
-    }
-}
 
 struct Client {
     http: reqwest::Client,
@@ -274,7 +256,7 @@ async fn timed_runs() {
     let work = tempfile::tempdir().unwrap();
     eprintln!("simulating the 3.2 h run (CSV and f64le)…");
     let csv = write_simulated_run(
-        &sim(1),
+        &common::reference_run(),
         &work.path().join("csv"),
         DataFormat::Csv,
         false,
@@ -282,7 +264,7 @@ async fn timed_runs() {
     )
     .unwrap();
     let bin = write_simulated_run(
-        &sim(1),
+        &common::reference_run(),
         &work.path().join("bin"),
         DataFormat::F64le,
         false,
@@ -448,7 +430,7 @@ async fn scale_out() {
     let work = tempfile::tempdir().unwrap();
     eprintln!("simulating the 3.2 h run (f64le)…");
     let bin = write_simulated_run(
-        &sim(1),
+        &common::reference_run(),
         &work.path().join("bin"),
         DataFormat::F64le,
         false,

@@ -44,7 +44,7 @@ struct Inner {
     upload_bytes: u64,
     uploads: [u64; 3],
     /// Per outcome (succeeded, failed, cancelled): bucket counts, sum, count.
-    durations: [([u64; DURATION_BUCKETS_S.len()], f64, u64); 3],
+    durations: [Series<{ DURATION_BUCKETS_S.len() }>; 3],
     /// Writes of a finished job's product refused by a full disk (each
     /// retried).
     storage_full_retries: u64,

@@ -7,7 +7,6 @@
 //! The queue itself lives in SQLite (`store`); this module never writes SQL
 //! and never runs the estimator on the async runtime.
 
-use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -123,7 +122,6 @@ enum StopReason {
 /// Settings of the workers.
 #[derive(Clone, Debug)]
 pub struct JobSettings {
-    pub data_dir: PathBuf,
     /// Where the runs' files are read from.
     pub run_store: RunStore,
     pub lease: Duration,

@@ -178,7 +178,6 @@ impl Application {
         let runner = Arc::new(JobRunner::new(
             store.clone(),
             JobSettings {
-                data_dir: config.data_dir.clone(),
                 run_store: run_store.clone(),
                 lease: config.lease,
                 estimate: config.estimate.clone(),
