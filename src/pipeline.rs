@@ -349,10 +349,12 @@ fn write_compensated(
         RecordWriter::create(&target.data, target.format, &options).map_err(write_err)?;
     let mut records = 0;
     let parameters = ParametersInForce::new(data, meta, file)?;
-    let dt = 1.0 / meta.sample_rate_hz;
     let mut reader = reader;
     while let Some(rec) = reader.next() {
         let rec = rec?;
+        // Each record over its own interval (SPEC §2a); a gap passes
+        // through as a gap.
+        let dt = reader.interval().dt;
         let rec = parameters.at(rec.t - 0.5 * dt).record(&rec, dt);
         // The temperature column, if any, passes through unchanged.
         match reader.temperature_c() {

@@ -35,8 +35,8 @@ pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>
 pub struct FineAlignment {
     /// Start of the first record's interval, s.
     pub t0: f64,
-    /// Record interval, s.
-    pub dt: f64,
+    /// The nominal record interval, s.
+    pub nominal_dt: f64,
     /// Records between zero-velocity updates.
     pub window: usize,
     /// Noise densities, rad/√s and m/s/√s.
@@ -44,19 +44,20 @@ pub struct FineAlignment {
     pub vrw: f64,
 }
 
-/// Fine alignment: navigates the (compensated) records of the first dwell
-/// from the coarse attitude with zero-velocity updates every `window`
-/// records, and returns the attitude at the dwell's end — which, the unit
-/// resting, is its attitude throughout the dwell.
+/// Fine alignment: navigates the (compensated) records of the first dwell,
+/// each over its own interval (the record and its Δt, s), from the coarse
+/// attitude with zero-velocity updates every `window` records, and returns
+/// the attitude at the dwell's end — which, the unit resting, is its
+/// attitude throughout the dwell.
 pub fn fine(
     site: &Site,
     c_b_n: &Matrix3<f64>,
-    records: impl Iterator<Item = Record>,
+    records: impl Iterator<Item = (Record, f64)>,
     how: &FineAlignment,
 ) -> Result<Matrix3<f64>, CalibError> {
     let FineAlignment {
         t0,
-        dt,
+        nominal_dt,
         window,
         arw,
         vrw,
@@ -68,13 +69,14 @@ pub fn fine(
         p0[(i, i)] = s * s;
     }
     let mut kf = SystematicFilter::new(f, &p0, &[], arw, vrw, 1e-6);
-    let mut nav = Strapdown::new(site, c_b_n, t0, dt);
-    let mut n = 0;
-    for r in records {
-        nav.update(&r);
+    let mut nav = Strapdown::new(site, c_b_n, t0, nominal_dt);
+    let (mut n, mut t_update) = (0, t0);
+    for (r, dt) in records {
+        nav.update_over(&r, dt);
         n += 1;
         if n % window == 0 {
-            kf.propagate(window as f64 * dt);
+            kf.propagate(r.t - t_update);
+            t_update = r.t;
             kf.update_zero_velocity(&nav.v_n)?;
             let (phi, dv) = kf.take_navigation_errors();
             nav.correct(&phi, &dv, &Vector3::zeros());

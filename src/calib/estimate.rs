@@ -279,6 +279,7 @@ pub(crate) fn estimate_scanned(
             ));
         }
     }
+    warnings.extend(scan.gaps.iter().map(|g| g.warning(&scan.segments)));
     let n_dwells = scan.dwells().count();
     if n_dwells < MULTI_POSITION_DWELLS {
         warnings.push(format!(
@@ -326,6 +327,7 @@ pub(crate) fn estimate_scanned(
         noise_arw_deg_rt_h: ctx.arw / DEG_PER_RT_H,
         noise_vrw_ug_rt_hz: ctx.vrw / UG_PER_RT_HZ,
         segments: scan.segments.clone(),
+        gaps: scan.gaps.iter().map(|g| g.report()).collect(),
         dwell_residuals: last.dwell_residuals,
         convergence: last.history,
         cross_check,

@@ -10,6 +10,7 @@ pub mod effect_sensitivity;
 pub mod error;
 pub mod estimate;
 pub mod filter;
+pub mod gaps;
 pub mod kf_pass;
 pub mod lsq;
 pub mod misfit;

@@ -6,9 +6,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::error::CalibError;
+use super::gaps::{bridge_gaps, BridgedGap};
 use super::options::EstimateOptions;
 use super::run::{RecordSource, RunInfo};
 use super::segment::{DetectOptions, RunSegment, SegmentKind, Segmenter, StartActivity};
+use crate::record::StepKind;
 
 /// What the pre-scan learns about a run.
 #[derive(Clone, Debug)]
@@ -23,6 +25,9 @@ pub struct Prescan {
     pub vrw: f64,
     /// The run's first seconds, summarised.
     pub start: StartActivity,
+    /// The gaps in the time stamps (SPEC §2a), each inside a dwell and
+    /// bridged by every pass (`gaps`); a run with any other is refused.
+    pub gaps: Vec<BridgedGap>,
 }
 
 impl Prescan {
@@ -33,8 +38,11 @@ impl Prescan {
     }
 }
 
-/// One streaming read: the segmentation, and the noise from the still
-/// blocks the segmentation found (one still decision for both).
+/// One streaming read: the segmentation, the noise from the still blocks
+/// the segmentation found (one still decision for both), and the gaps in
+/// the time stamps. A step shorter than the tolerance (a source no reader
+/// checked) refuses the run, as does a gap anywhere but inside a dwell
+/// (`gaps::bridge_gaps`).
 pub fn prescan(
     source: &dyn RecordSource,
     run: &RunInfo,
@@ -48,6 +56,16 @@ pub fn prescan(
         let r = r?;
         if n == 0 {
             t_begin = r.t - dt;
+        } else if StepKind::of(r.t - t_end, dt) == StepKind::TooShort {
+            return Err(CalibError::Unusable(format!(
+                "record {}: time {} s follows {} s, a step more than {} % shorter than the \
+                 nominal {} s",
+                n + 1,
+                r.t,
+                t_end,
+                crate::record::STEP_TOLERANCE * 100.0,
+                dt
+            )));
         }
         t_end = r.t;
         n += 1;
@@ -60,6 +78,7 @@ pub fn prescan(
         return Err(CalibError::Unusable("the run holds no records".into()));
     }
     let found = seg.finish();
+    let gaps = bridge_gaps(&found.segments, &found.gaps)?;
     Ok(Prescan {
         segments: found.segments,
         n_records: n,
@@ -68,6 +87,7 @@ pub fn prescan(
         arw: found.noise.arw,
         vrw: found.noise.vrw,
         start: found.start,
+        gaps,
     })
 }
 

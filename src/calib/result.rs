@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::gaps::GapReport;
 use super::misfit::ModelCheck;
 use super::segment::RunSegment;
 use super::thermal_states::RunThermal;
@@ -128,6 +129,10 @@ pub struct CalibrationResult {
     pub noise_arw_deg_rt_h: f64,
     pub noise_vrw_ug_rt_hz: f64,
     pub segments: Vec<RunSegment>,
+    /// Gaps in the time stamps (SPEC §2a: records lost), each bridged at
+    /// rest and named in `warnings`; absent when none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gaps: Vec<GapReport>,
     pub dwell_residuals: Vec<DwellResidual>,
     pub convergence: Convergence,
     #[serde(default, skip_serializing_if = "Option::is_none")]

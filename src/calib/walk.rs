@@ -1,7 +1,8 @@
 //! The run walker every estimator's pass shares: the context of a pass
 //! (source, options, scan, noise densities), the start alignment, and one
 //! navigated walk over the compensated records that hands each window to
-//! the estimator.
+//! the estimator. Every record is taken over its own interval from its
+//! stamps, and gaps at rest are bridged (`gaps::timed_records`).
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -14,6 +15,7 @@ use super::effect_sensitivity::{
 };
 use super::error::CalibError;
 use super::filter::{error_dynamics, SystematicFilter};
+use super::gaps::{timed_records, Timed};
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
 use super::priors::{initial_navigation_covariance, prior_sigma};
@@ -129,19 +131,17 @@ pub(crate) fn align_start(
     let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
     let c_coarse = align::coarse(&f_b, &w_b)?;
     let t_align_end = dwell1.t_end;
-    let align_records = ctx
-        .source
-        .records()?
+    let align_records = timed_records(ctx.source, ctx.scan, ctx.run.sample_rate_hz)?
         .map_while(|r| r.ok())
-        .take_while(|r| r.t <= t_align_end + 1e-9)
-        .map(|r| comp.record(&r, dt));
+        .take_while(|r| r.record.t <= t_align_end + 1e-9)
+        .map(|r| (comp.record(&r.record, r.dt), r.dt));
     align::fine(
         &ctx.run.site,
         &c_coarse,
         align_records,
         &align::FineAlignment {
             t0: ctx.scan.t_begin,
-            dt,
+            nominal_dt: dt,
             window: ctx.window(),
             arw: ctx.arw,
             vrw: ctx.vrw,
@@ -180,7 +180,9 @@ pub(crate) struct WindowEnd<'a> {
 /// `sens` (the base 24, then one per effect state of `effects`, from the
 /// record's own motion; the effects of known size removed first),
 /// propagates `sens` at each window's end and hands the window to
-/// `on_window` (which may update and correct).
+/// `on_window` (which may update and correct). Each record counts over
+/// its own interval; a window is `ctx.window()` records of the run, and
+/// the records that bridge a gap add to the window that holds it.
 pub(crate) fn walk(
     ctx: &PassContext,
     comp: &Compensator,
@@ -190,23 +192,29 @@ pub(crate) fn walk(
     progress: &mut dyn FnMut(f64),
     mut on_window: impl FnMut(&mut SystematicFilter, &mut WindowEnd) -> Result<(), CalibError>,
 ) -> Result<(), CalibError> {
-    let dt = 1.0 / ctx.run.sample_rate_hz;
+    let nominal = 1.0 / ctx.run.sample_rate_hz;
     let window = ctx.window();
-    let mut nav = Strapdown::new(&ctx.run.site, c_b_n0, ctx.scan.t_begin, dt);
+    let mut nav = Strapdown::new(&ctx.run.site, c_b_n0, ctx.scan.t_begin, nominal);
     let mut c_prev = nav.c_b_n();
     let (mut in_window, mut index, mut count) = (0usize, 0usize, 0u64);
     let mut t_ws = ctx.scan.t_begin;
     // Two records of look-ahead: the effect columns take rates of change
     // from the records on both sides.
-    let mut records = ctx.source.records()?;
-    let mut compensated = move || -> Result<Option<Record>, CalibError> {
+    let mut records = timed_records(ctx.source, ctx.scan, ctx.run.sample_rate_hz)?;
+    let mut compensated = move || -> Result<Option<Timed>, CalibError> {
         Ok(match records.next() {
-            Some(r) => Some(comp.record(&r?, dt)),
+            Some(r) => {
+                let r = r?;
+                Some(Timed {
+                    record: comp.record(&r.record, r.dt),
+                    ..r
+                })
+            }
             None => None,
         })
     };
     // around[NEIGHBOURS] is the record being walked.
-    let mut around: VecDeque<Record> = VecDeque::with_capacity(2 * NEIGHBOURS + 1);
+    let mut around: VecDeque<Timed> = VecDeque::with_capacity(2 * NEIGHBOURS + 1);
     for _ in 0..=NEIGHBOURS {
         if let Some(r) = compensated()? {
             around.push_back(r);
@@ -214,18 +222,28 @@ pub(crate) fn walk(
     }
     let mut at = 0usize;
     while at < around.len() {
-        let mut r = around[at];
+        let Timed {
+            record: mut r,
+            dt,
+            extra,
+        } = around[at];
         let motion = (!effects.is_empty()).then(|| {
             let jacobian = comp.accel_jacobian(&Vector3::from(r.dv), dt);
             let near = |j: usize| around[(at + j).saturating_sub(NEIGHBOURS).min(around.len() - 1)];
+            // The neighbours' mean rates over this record's interval: the
+            // differences of the effect columns are taken on an even grid.
+            let over_dt = |j: usize, inc: fn(&Record) -> [f64; 3]| {
+                let n = near(j);
+                Vector3::from(inc(&n.record)) * (dt / n.dt)
+            };
             let t_mid = r.t - 0.5 * dt;
             let (delta_c, rate_c_per_s) = ctx
                 .temperature
                 .as_ref()
                 .map_or((0.0, 0.0), |c| (c.delta_c(t_mid), c.rate_c_per_s(t_mid)));
             RecordMotion {
-                dtheta: std::array::from_fn(|j| near(j).dtheta.into()),
-                dv: std::array::from_fn(|j| near(j).dv.into()),
+                dtheta: std::array::from_fn(|j| over_dt(j, |r| r.dtheta)),
+                dv: std::array::from_fn(|j| over_dt(j, |r| r.dv)),
                 dt,
                 t_mid: t_mid - ctx.scan.t_begin,
                 delta_c,
@@ -237,7 +255,7 @@ pub(crate) fn walk(
         if let Some(m) = &motion {
             remove_known_effects(&mut r, &effects.removed, m);
         }
-        nav.update(&r);
+        nav.update_over(&r, dt);
         let c_now = nav.c_b_n();
         // The attitude at mid-record: the record's first half-turn applied
         // to its start, to second order (the chord (C₀ + C₁)/2 shrinks
@@ -267,6 +285,9 @@ pub(crate) fn walk(
             around.pop_front();
         } else {
             at += 1;
+        }
+        if extra {
+            continue;
         }
         in_window += 1;
         count += 1;

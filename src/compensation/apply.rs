@@ -4,24 +4,25 @@
 //! held in memory.
 
 use crate::model::{Compensator, ErrorParameters};
-use crate::record::Record;
+use crate::record::{Intervals, Record};
 
 /// An iterator of compensated records over an iterator of records (or of
 /// read results, whose errors pass through untouched).
 pub struct Compensated<I> {
     records: I,
     compensator: Compensator,
-    dt_s: f64,
+    intervals: Intervals,
 }
 
 impl<I> Compensated<I> {
     /// Compensates `records` of a run sampled at `sample_rate_hz` with
-    /// `params` (SI). Δt is the nominal interval, as the estimator takes it.
+    /// `params` (SI). Δt is each record's own interval from its stamps
+    /// (SPEC §2a), as the estimator takes it.
     pub fn new(records: I, params: &ErrorParameters, sample_rate_hz: f64) -> Self {
         Compensated {
             records,
             compensator: params.compensator(),
-            dt_s: 1.0 / sample_rate_hz,
+            intervals: Intervals::new(sample_rate_hz),
         }
     }
 
@@ -39,9 +40,10 @@ where
     type Item = Result<Record, E>;
 
     fn next(&mut self) -> Option<Self::Item> {
-        let dt = self.dt_s;
-        let c = &self.compensator;
-        self.records.next().map(|r| r.map(|rec| c.record(&rec, dt)))
+        let (c, intervals) = (&self.compensator, &mut self.intervals);
+        self.records
+            .next()
+            .map(|r| r.map(|rec| c.record(&rec, intervals.next(rec.t).dt)))
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {

@@ -50,8 +50,10 @@ impl Convention {
                                  at 10 deg/s, 100 Hz, 1e-4 s^2/m). Rates: the same with dt = 1 \
                                  and f for dv"
                 .into(),
-            record_interval: "dt is the nominal record interval 1/sample_rate_hz of the \
-                              run's metadata, as the estimator uses it"
+            record_interval: "dt is each record's own interval t_k - t_(k-1) from its time \
+                              stamps, as the estimator uses it; the first record, and a \
+                              record after a gap (a step more than 10 % over the nominal \
+                              1/sample_rate_hz of the run's metadata), cover one nominal step"
                 .into(),
         }
     }

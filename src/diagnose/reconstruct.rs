@@ -22,6 +22,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::error::DiagnoseError;
+use crate::calib::gaps::timed_records;
 use crate::calib::prescan::Prescan;
 use crate::calib::{RecordSource, SegmentKind};
 use crate::model::Compensator;
@@ -93,16 +94,20 @@ pub fn reconstruct(
         .filter(|(_, s)| s.kind == SegmentKind::Motion)
         .map(|(i, _)| i)
         .collect();
-    // Per motion: (mid-time, rate magnitude) of its records.
+    // Per motion: (mid-time, rate magnitude) of its records, and the
+    // time they cover.
     let mut rates: Vec<Vec<(f64, f64)>> = vec![Vec::new(); motions.len()];
+    let mut spans = vec![0.0; motions.len()];
     // Net rotation of each motion: the sum of the increments, exact for a
     // turn about a fixed axis (no coning), less the Earth rate the unit
     // sensed in the dwell before (a turn of 10 s senses 0.04 deg of it).
     let mut sums: Vec<Vector3<f64>> = vec![Vector3::zeros(); motions.len()];
     let mut m = 0;
-    for r in source.records()? {
-        let r = comp.record(&r?, dt);
-        let t_mid = r.t - 0.5 * dt;
+    for timed in timed_records(source, scan, sample_rate_hz)? {
+        let timed = timed?;
+        let r_dt = timed.dt;
+        let r = comp.record(&timed.record, r_dt);
+        let t_mid = r.t - 0.5 * r_dt;
         while m < motions.len() && scan.segments[motions[m]].t_end < t_mid {
             m += 1;
         }
@@ -110,7 +115,8 @@ pub fn reconstruct(
             break;
         }
         if t_mid >= scan.segments[motions[m]].t_start {
-            rates[m].push((t_mid, Vector3::from(r.dtheta).norm() / dt));
+            rates[m].push((t_mid, Vector3::from(r.dtheta).norm() / r_dt));
+            spans[m] += r_dt;
             sums[m] += Vector3::from(r.dtheta);
         }
     }
@@ -123,7 +129,7 @@ pub fn reconstruct(
             Some(prev) => comp.gyro(&(Vector3::from(prev.mean_omega_b) * dt), dt) / dt,
             None => Vector3::zeros(),
         };
-        let rv = sums[k] - earth_b * (rates[k].len() as f64 * dt);
+        let rv = sums[k] - earth_b * spans[k];
         let angle = rv.norm();
         if angle < 1e-3 {
             return Err(DiagnoseError::Scheme(format!(

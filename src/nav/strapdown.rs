@@ -1,6 +1,8 @@
 //! Strapdown mechanization on increments at a fixed site.
 //!
-//! The navigation frame n is East-North-Up at the site and turns with the
+//! Each record is advanced over its own interval Δt (SPEC §2a: stamps
+//! jitter), which gravity, Coriolis and the navigation frame's turn
+//! integrate over. The navigation frame n is East-North-Up at the site and turns with the
 //! Earth, ω_in^n = ω_ie^n (the unit does not travel: ω_en^n is dropped, its
 //! size at calibration speeds being below 1e-12 rad/s). Per record k:
 //!
@@ -67,7 +69,7 @@ impl Strapdown {
         self.q_b_n.to_rotation_matrix().into_inner()
     }
 
-    /// The nominal record interval.
+    /// The nominal record interval, which [`Strapdown::update`] takes.
     pub fn dt(&self) -> f64 {
         self.dt
     }
@@ -79,12 +81,20 @@ impl Strapdown {
         self.prev = None;
     }
 
-    /// Advances by one record of compensated increments.
+    /// Advances by one record of compensated increments over the nominal
+    /// interval (evenly stamped records, as a simulation makes them).
     pub fn update(&mut self, rec: &Record) {
+        self.update_over(rec, self.dt);
+    }
+
+    /// Advances by one record of compensated increments over its own
+    /// interval `dt` (s). The coning and sculling terms keep their
+    /// equal-step coefficients: across steps that differ by a fraction ε
+    /// they are right to about ε of their own (second-order) size.
+    pub fn update_over(&mut self, rec: &Record, dt: f64) {
         let dtheta = Vector3::from(rec.dtheta);
         let dv = Vector3::from(rec.dv);
         let (dtheta_prev, dv_prev) = self.prev.unwrap_or((dtheta, dv));
-        let dt = self.dt;
 
         let zeta = self.omega_ie_n * dt;
         let c_prev = self.q_b_n;

@@ -14,6 +14,7 @@ use super::{NoiseError, NoiseOptions};
 use crate::calib::prescan::prescan;
 use crate::calib::{RecordSource, RunInfo, SegmentKind};
 use crate::model::units::{DEG_PER_H, UG};
+use crate::record::{Interval, Intervals};
 
 /// How often (records) the cancel flag is read.
 const CANCEL_EVERY: u64 = 65_536;
@@ -83,7 +84,14 @@ pub fn analyse(
 
 /// One pass: every record whose interval's middle lies in a window goes to
 /// the stretch of that window. Returns the stretches that received
-/// records.
+/// records. Each record's interval comes from its stamps (SPEC §2a): its
+/// increment is taken as its mean rate times the nominal interval τ0, so
+/// that a resting unit's constant rate still cancels in the second
+/// differences when the stamps jitter. A gap (inside a dwell: the
+/// pre-scan refuses any other) ends the stretch, so no cluster spans time
+/// no record covers; a record whose interval the stamps do not give (the
+/// first, the one after a gap) is left out, as 10 % of its g·Δt would
+/// outweigh the noise.
 fn accumulate(
     source: &dyn RecordSource,
     windows: &[(f64, f64)],
@@ -95,13 +103,26 @@ fn accumulate(
     let mut w = 0;
     let mut open: Option<Stretch> = None;
     let mut n = 0u64;
+    let mut intervals = Intervals::new(1.0 / tau0);
     for r in source.records()? {
         let r = r?;
         n += 1;
         if n % CANCEL_EVERY == 0 && cancel.load(Ordering::Relaxed) {
             return Err(NoiseError::Cancelled);
         }
-        let mid = r.t - 0.5 * tau0;
+        let Interval {
+            dt,
+            gap,
+            from_stamps,
+        } = intervals.next(r.t);
+        if gap.is_some() && open.is_some() {
+            acc.end_stretch();
+            used.extend(open.take());
+        }
+        if !from_stamps {
+            continue;
+        }
+        let mid = r.t - 0.5 * dt;
         while w < windows.len() && mid > windows[w].1 {
             w += 1;
             acc.end_stretch();
@@ -114,19 +135,20 @@ fn accumulate(
             continue;
         }
         let s = open.get_or_insert(Stretch {
-            t_start: r.t - tau0,
+            t_start: r.t - dt,
             t_end: r.t,
             records: 0,
         });
         s.t_end = r.t;
         s.records += 1;
+        let to_tau0 = tau0 / dt;
         acc.push(&[
-            r.dtheta[0],
-            r.dtheta[1],
-            r.dtheta[2],
-            r.dv[0],
-            r.dv[1],
-            r.dv[2],
+            r.dtheta[0] * to_tau0,
+            r.dtheta[1] * to_tau0,
+            r.dtheta[2] * to_tau0,
+            r.dv[0] * to_tau0,
+            r.dv[1] * to_tau0,
+            r.dv[2] * to_tau0,
         ]);
     }
     acc.end_stretch();

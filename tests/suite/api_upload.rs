@@ -145,11 +145,20 @@ async fn bad_data_is_refused_naming_the_problem_and_nothing_is_stored() {
             None,
         ),
         (
-            "time step",
+            "time step 10.1 % short",
             &csv_meta,
-            with(3, "0.09,0,0,0,0,0,0.098"),
+            with(3, "0.03899,0,0,0,0,0,0.098"),
             422,
             "line 5: time step",
+            Some(5),
+            None,
+        ),
+        (
+            "time step zero",
+            &csv_meta,
+            with(3, "0.03,0,0,0,0,0,0.098"),
+            422,
+            "line 5: time 0.03 does not increase",
             Some(5),
             None,
         ),
@@ -285,7 +294,15 @@ async fn bad_data_is_refused_naming_the_problem_and_nothing_is_stored() {
     }
 
     // Metadata and request problems.
-    let valid = csv(&good.iter().map(String::as_str).collect::<Vec<_>>());
+    // Stamps as loggers write them (SPEC §2a): steps 9.9 % off nominal
+    // either way, and a gap (records 101 to 110 lost), all accepted. (The
+    // shortest run is counted in records: 4001 of them.)
+    let long = good_lines(4011);
+    let mut stamped: Vec<&str> = long.iter().map(String::as_str).collect();
+    stamped[49] = "0.50099,1e-7,2e-7,3e-7,0,0,0.098";
+    stamped[59] = "0.59901,1e-7,2e-7,3e-7,0,0,0.098";
+    stamped.drain(100..110);
+    let valid = csv(&stamped);
     let other = metadata("RLG-0043", "csv");
     let meta_cases: Vec<(&str, &str, Vec<u8>, u16, &str)> = vec![
         ("malformed metadata", "RLG-0042", b"{\"unit_serial\": ".to_vec(), 422, "metadata"),

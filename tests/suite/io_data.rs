@@ -200,11 +200,14 @@ fn record_writer_round_trips_every_format() {
 // ------------------------------------------------------------ what is accepted
 
 #[test]
-fn rate_files_become_increments_over_the_nominal_interval() {
+fn rate_files_become_increments_over_each_records_own_interval() {
+    // At 200 Hz: the first record over the nominal 5 ms, the second over
+    // its step of 5.4 ms (8 % long), the third after a gap over 5 ms.
     let text = "t,wx,wy,wz,fx,fy,fz\n\
                 0.005,0.5,-1,2e-3,0,0.25,9.8\n\
-                0.010,1,0,0,-4,0,9.8\n";
-    let reader = RecordReader::new(
+                0.0104,1,0,0,-4,0,9.8\n\
+                0.1,2,0,0,0,0,9.8\n";
+    let mut reader = RecordReader::new(
         text.as_bytes(),
         DataFormat::Csv,
         200.0,
@@ -212,18 +215,23 @@ fn rate_files_become_increments_over_the_nominal_interval() {
     )
     .expect("header");
     assert_eq!(reader.kind(), DataKind::Rates);
-    let records = collect(reader).expect("read");
     let expected = [
         (0.005, [0.0025, -0.005, 1e-5], [0.0, 0.00125, 0.049]),
-        (0.010, [0.005, 0.0, 0.0], [-0.02, 0.0, 0.049]),
+        (0.0104, [0.0054, 0.0, 0.0], [-0.0216, 0.0, 0.05292]),
+        (0.1, [0.01, 0.0, 0.0], [0.0, 0.0, 0.049]),
     ];
-    assert_eq!(records.len(), expected.len());
-    for (r, (t, dtheta, dv)) in records.iter().zip(expected) {
+    for (t, dtheta, dv) in expected {
+        let r = reader.next().expect("a record").expect("read");
         assert_eq!(r.t, t);
         for (got, want) in r.dtheta.iter().chain(&r.dv).zip(dtheta.iter().chain(&dv)) {
-            assert!((got - want).abs() <= 1e-15 * want.abs(), "{got} vs {want}");
+            assert!(
+                (got - want).abs() <= 1e-12 * want.abs(),
+                "t = {t}: {got} vs {want}"
+            );
         }
     }
+    assert!(reader.interval().gap.is_some());
+    assert!(reader.next().is_none());
 }
 
 #[test]
@@ -279,30 +287,70 @@ fn blank_and_comment_lines_count_towards_line_numbers() {
 }
 
 #[test]
-fn steps_within_the_tolerance_are_accepted() {
-    // Jitter of ±0.5 % around 10 ms, and a step of exactly 10 ms at t = 1e4 s.
+fn steps_within_ten_percent_are_accepted_and_a_longer_one_is_a_gap_passed_on() {
+    // Steps 9.9 % long and short of 10 ms, then 10.1 % long: a gap, and a
+    // step of exactly 10 ms at t = 1e4 s after a long one.
     let text = format!(
-        "{HEADER}\n0.01,0,0,0,0,0,0\n0.02005,0,0,0,0,0,0\n0.03,0,0,0,0,0,0\n\
-         10000.0,0,0,0,0,0,0\n"
+        "{HEADER}\n0.01,0,0,0,0,0,0\n0.02099,0,0,0,0,0,0\n0.03,0,0,0,0,0,0\n\
+         0.04101,0,0,0,0,0,0\n10000.0,0,0,0,0,0,0\n10000.01,0,0,0,0,0,0\n"
     );
-    let err = csv_error(&text);
-    assert!(err.starts_with("line 5: time step"), "{err}");
-    let text = format!(
-        "{HEADER}\n0.01,0,0,0,0,0,0\n0.02005,0,0,0,0,0,0\n0.03,0,0,0,0,0,0\n\
-         0.0399500,0,0,0,0,0,0\n"
+    let mut reader = RecordReader::new(
+        text.as_bytes(),
+        DataFormat::Csv,
+        RATE_HZ,
+        ReadLimits::default(),
+    )
+    .expect("header");
+    let mut seen = Vec::new();
+    while let Some(r) = reader.next() {
+        let r = r.expect("read");
+        let i = reader.interval();
+        seen.push((r.t, i.dt, i.gap.map(|g| (g.t_start, g.length_s()))));
+    }
+    assert_eq!(reader.gaps(), 2);
+    let expected = [
+        (0.01, 0.01, None),
+        (0.02099, 0.01099, None),
+        (0.03, 0.00901, None),
+        (0.04101, 0.01, Some((0.03, 0.00101))),
+        (10000.0, 0.01, Some((0.04101, 9999.94899))),
+        (10000.01, 0.01, None),
+    ];
+    assert_eq!(seen.len(), expected.len());
+    for ((t, dt, gap), (et, edt, egap)) in seen.into_iter().zip(expected) {
+        assert_eq!(t, et);
+        assert!((dt - edt).abs() < 1e-9, "t = {t}: Δt {dt} vs {edt}");
+        match (gap, egap) {
+            (None, None) => {}
+            (Some((a, l)), Some((ea, el))) => {
+                assert_eq!(a, ea);
+                assert!((l - el).abs() < 1e-9, "t = {t}: gap {l} vs {el}");
+            }
+            other => panic!("t = {t}: {other:?}"),
+        }
+    }
+}
+
+#[test]
+fn a_run_at_another_rate_than_its_metadata_is_refused() {
+    // 104 Hz under 100 Hz metadata: every step 3.8 % short, each normal.
+    let text = |rate: f64| {
+        let mut text = format!("{HEADER}\n");
+        for k in 1..=1500 {
+            text.push_str(&format!("{},0,0,0,0,0,0\n", k as f64 / rate));
+        }
+        text
+    };
+    let msg = csv_error(&text(104.0));
+    assert!(
+        msg.starts_with("line 1002: 1000 steps (gaps left out)") && msg.contains("104.0000 Hz"),
+        "{msg}"
     );
-    assert_eq!(
-        read_bytes(text.as_bytes(), DataFormat::Csv)
-            .expect("read")
-            .len(),
-        4
-    );
-    let text = format!("{HEADER}\n10000.00,0,0,0,0,0,0\n10000.01,0,0,0,0,0,0\n");
-    assert_eq!(
-        read_bytes(text.as_bytes(), DataFormat::Csv)
-            .expect("read")
-            .len(),
-        2
+    // 50 Hz: every step a gap.
+    let msg = csv_error(&text(50.0));
+    assert!(
+        msg.starts_with("line 1002: 1000 of 1000 time steps are more than 10 % longer"),
+        "{msg}"
     );
 }
 
@@ -418,16 +466,23 @@ fn non_increasing_time_is_refused_naming_the_line() {
 }
 
 #[test]
-fn off_nominal_time_step_is_refused_naming_the_line() {
-    let msg = csv_error(&fifth_line("0.0405,0,0,0,0,0,0"));
+fn a_step_shorter_than_the_tolerance_zero_or_negative_is_refused_naming_the_line() {
+    let msg = csv_error(&fifth_line("0.03899,0,0,0,0,0,0"));
     assert!(msg.starts_with("line 5: time step"), "{msg}");
     assert!(
-        msg.contains("1 %") && msg.contains("nominal step 0.01 s"),
+        msg.contains("10 % shorter") && msg.contains("nominal step 0.01 s"),
         "{msg}"
     );
-    // A dropped record is a double step.
-    let msg = csv_error(&fifth_line("0.05,0,0,0,0,0,0"));
-    assert!(msg.starts_with("line 5: time step"), "{msg}");
+    let msg = csv_error(&fifth_line("0.03,0,0,0,0,0,0"));
+    assert!(msg.starts_with("line 5: time 0.03 does not increase"), "{msg}");
+    let msg = csv_error(&fifth_line("0.025,0,0,0,0,0,0"));
+    assert!(msg.starts_with("line 5: time 0.025 does not increase"), "{msg}");
+    // 9.9 % short or long passes (and the step after it, as far off the
+    // other way).
+    for ok in ["0.03901,0,0,0,0,0,0", "0.04099,0,0,0,0,0,0"] {
+        let records = read_bytes(fifth_line(ok).as_bytes(), DataFormat::Csv).expect(ok);
+        assert_eq!(records.len(), 5, "{ok}");
+    }
 }
 
 #[test]
@@ -545,7 +600,7 @@ fn f64le_bad_values_and_times_are_refused_naming_the_record() {
     let mut back = records.clone();
     back[2].t = records[0].t;
     let mut jump = records.clone();
-    jump[4].t += 0.001;
+    jump[4].t -= 0.00101;
     // The writer refuses non-finite values, so encode them by hand.
     let raw = |rs: &[Record]| -> Vec<u8> {
         rs.iter()

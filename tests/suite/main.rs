@@ -27,6 +27,7 @@ mod calib_behaviour;
 mod calib_effect_states;
 mod calib_raw_units;
 mod calib_tactical;
+mod calib_time_stamps;
 mod cli;
 mod cli_diagnose;
 mod compensation_round_trip;

@@ -182,9 +182,10 @@ pub enum DataError {
         previous: f64,
     },
 
-    /// A time step too far from the nominal one, 1/sample_rate_hz.
+    /// A time step shorter than the nominal one, 1/sample_rate_hz, by more
+    /// than the tolerance (a longer step is a gap, passed on).
     #[error(
-        "{at}: time step {step} s (from {previous} to {t}) is more than {} % off the nominal step {nominal} s",
+        "{at}: time step {step} s (from {previous} to {t}) is more than {} % shorter than the nominal step {nominal} s",
         STEP_TOLERANCE * 100.0
     )]
     TimeStep {
@@ -198,6 +199,25 @@ pub enum DataError {
         step: f64,
         /// 1/sample_rate_hz, s.
         nominal: f64,
+    },
+
+    /// More of the steps are gaps than normal steps: the records come at
+    /// a lower rate than the metadata's, not with a few records lost.
+    #[error(
+        "{at}: {gaps} of {steps} time steps are more than {} % longer than the nominal step {nominal} s: the data is not at {sample_rate_hz} Hz with records lost, but at a lower rate (wrong sample_rate_hz in the metadata?)",
+        STEP_TOLERANCE * 100.0
+    )]
+    MostlyGaps {
+        /// The line or record.
+        at: Position,
+        /// Steps since the first record.
+        steps: u64,
+        /// Of them, gaps.
+        gaps: u64,
+        /// 1/sample_rate_hz, s.
+        nominal: f64,
+        /// The metadata's rate, Hz.
+        sample_rate_hz: f64,
     },
 
     /// A CSV line longer than [`ReadLimits::max_line_bytes`](super::ReadLimits).
@@ -246,11 +266,12 @@ pub enum DataError {
         line: u64,
     },
 
-    /// The time steps average away from 1/sample_rate_hz: each step is
-    /// within the per-step tolerance, but the run's clock disagrees with
-    /// the metadata's rate.
+    /// The normal time steps (gaps left out: how many records a gap lost
+    /// is unknown) average away from 1/sample_rate_hz: each step is within
+    /// the per-step tolerance, but the run's clock disagrees with the
+    /// metadata's rate.
     #[error(
-        "{at}: {steps} steps span {span} s where the sample rate {sample_rate_hz} Hz gives {expected} s: the data's mean rate is {mean_rate_hz:.4} Hz, more than {} % off (wrong sample_rate_hz in the metadata?)",
+        "{at}: {steps} steps (gaps left out) span {span} s where the sample rate {sample_rate_hz} Hz gives {expected} s: the data's mean rate is {mean_rate_hz:.4} Hz, more than {bound_pct:.3} % off ({} % and five standard errors of the steps' jitter; wrong sample_rate_hz in the metadata?)",
         MEAN_RATE_TOLERANCE * 100.0
     )]
     MeanRate {
@@ -266,6 +287,8 @@ pub enum DataError {
         sample_rate_hz: f64,
         /// steps / span, Hz.
         mean_rate_hz: f64,
+        /// The relative deviation allowed at this many steps, %.
+        bound_pct: f64,
     },
 
     /// The gzip stream ends before its end marker: a cut-off upload or copy.
@@ -323,6 +346,7 @@ impl DataError {
             | DataError::Temperature { at, .. }
             | DataError::TimeNotIncreasing { at, .. }
             | DataError::TimeStep { at, .. }
+            | DataError::MostlyGaps { at, .. }
             | DataError::MeanRate { at, .. }
             | DataError::TooLarge { at, .. } => Some(*at),
             DataError::TrailingBytes {

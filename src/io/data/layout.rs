@@ -3,14 +3,20 @@
 //! messages all quote, kept in a leaf so none of them depends on another
 //! for a name.
 
-/// Largest accepted relative deviation of a time step from 1/sample_rate_hz.
-pub const STEP_TOLERANCE: f64 = 0.01;
+/// Largest relative deviation of a normal time step from
+/// 1/sample_rate_hz (SPEC §2a): the record module's rule, which every
+/// consumer of records shares.
+pub use crate::record::STEP_TOLERANCE;
 
-/// Largest accepted relative deviation of the mean step (time since the
-/// first record over the steps taken) from 1/sample_rate_hz. A unit's
-/// clock is good to a few parts in 10⁵; a step tolerance of 1 % alone lets
-/// a run at 100.5 Hz pass as 100 Hz and then fail in the estimator.
+/// Largest accepted relative deviation of the mean normal step from
+/// 1/sample_rate_hz, beyond what the steps' own jitter explains (five
+/// standard errors of their spread). A unit's clock is good to a few parts
+/// in 10⁵; a step tolerance of 10 % alone lets a run at 105 Hz pass as
+/// 100 Hz.
 pub const MEAN_RATE_TOLERANCE: f64 = 0.001;
+
+/// Standard errors of the mean step that its jitter may explain.
+pub(crate) const MEAN_RATE_SIGMAS: f64 = 5.0;
 
 /// Column names of the increments kind, in file order.
 pub(crate) const INCREMENT_COLUMNS: [&str; 7] = ["t", "dthx", "dthy", "dthz", "dvx", "dvy", "dvz"];

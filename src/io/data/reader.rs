@@ -6,7 +6,7 @@ use std::io::{self, Read};
 use std::iter::FusedIterator;
 use std::path::Path;
 
-use crate::record::{DataKind, Record};
+use crate::record::{DataKind, Interval, Record};
 
 use super::binary::{self, RECORD_BYTES, RECORD_BYTES_WITH_TEMPERATURE};
 use super::buffer::{FillError, Window};
@@ -24,14 +24,21 @@ use super::temperature::{is_plausible, TemperaturePoint, TemperatureSummary, Tem
 ///
 /// What is checked (SPEC §5): the CSV header names the kind of data; each
 /// record has 7 finite numbers; time strictly increases, and every step is
-/// within [`STEP_TOLERANCE`](super::STEP_TOLERANCE) (relative) of the
-/// nominal step `Δt = 1/sample_rate_hz`. Comments (`#…`) and blank lines may
+/// at least the nominal step `Δt = 1/sample_rate_hz` less
+/// [`STEP_TOLERANCE`](super::STEP_TOLERANCE) (relative). A step longer
+/// than the tolerance allows is a gap (SPEC §2a: records lost): it is
+/// passed on, not refused, and the record after it says so
+/// ([`interval`](Self::interval); [`gaps`](Self::gaps) counts them), as
+/// [`Intervals`](crate::record::Intervals) tells every consumer from the
+/// stamps alone. The normal steps' mean must be nominal (gaps left out),
+/// and gaps must stay fewer than normal steps. Comments (`#…`) and blank lines may
 /// appear before the header and between records; CRLF line ends and blanks
 /// around numbers are accepted, as is a UTF-8 byte-order mark.
 ///
 /// Rate files (`t,wx,wy,wz,fx,fy,fz`) are converted as they are read: each
-/// sample becomes an increment over its nominal interval, `dtheta = w·Δt`,
-/// `dv = f·Δt` with `Δt = 1/sample_rate_hz`, so every record means the same
+/// sample becomes an increment over its record's interval, `dtheta = w·Δt`,
+/// `dv = f·Δt` with `Δt = t_k − t_{k−1}` (one nominal step for the first
+/// record and the record after a gap), so every record means the same
 /// thing downstream. [`kind`](Self::kind) still tells what the file held.
 ///
 /// The unit's temperature (SPEC §3a), when the file has it (a CSV header
@@ -57,6 +64,8 @@ pub struct RecordReader<R: Read> {
     track: TemperatureTrack,
     max_line_bytes: usize,
     timing: Timing,
+    /// The last record's interval.
+    interval: Interval,
     sample_rate_hz: f64,
     /// CSV: physical lines consumed so far.
     lines: u64,
@@ -140,6 +149,11 @@ impl<R: Read> RecordReader<R> {
             last_temperature_c: None,
             track: TemperatureTrack::default(),
             max_line_bytes: limits.max_line_bytes,
+            interval: Interval {
+                dt: 1.0 / sample_rate_hz,
+                gap: None,
+                from_stamps: false,
+            },
             timing,
             sample_rate_hz,
             lines: 0,
@@ -241,6 +255,17 @@ impl<R: Read> RecordReader<R> {
     /// Records yielded so far.
     pub fn records_read(&self) -> u64 {
         self.records
+    }
+
+    /// The interval of the last record read: its length, and the gap
+    /// before it when records were lost there.
+    pub fn interval(&self) -> Interval {
+        self.interval
+    }
+
+    /// Gaps passed so far (steps longer than the tolerance allows).
+    pub fn gaps(&self) -> u64 {
+        self.timing.gaps()
     }
 
     /// Bytes taken from the (decompressed) stream so far, including the
@@ -360,9 +385,10 @@ impl<R: Read> RecordReader<R> {
             let line_no = self.lines;
             let values = csv_values(line, line_no, self.kind, columns, &mut self.timing);
             self.window.consume(consume);
-            let record = values.and_then(|v| {
+            let record = values.and_then(|(v, interval)| {
                 self.accept_temperature(v[0], &v, || Position::Line(line_no))?;
-                Ok(to_record(self.kind, &v, self.timing.nominal()))
+                self.interval = interval;
+                Ok(to_record(self.kind, &v, interval.dt))
             });
             if record.is_ok() {
                 self.records += 1;
@@ -408,23 +434,21 @@ impl<R: Read> RecordReader<R> {
                 text: values[c].to_string(),
             }));
         }
-        if let Err(e) = self.timing.accept(values[0], || at) {
-            return Some(Err(e));
-        }
+        let interval = match self.timing.accept(values[0], || at) {
+            Ok(interval) => interval,
+            Err(e) => return Some(Err(e)),
+        };
         if let Err(e) = self.accept_temperature(values[0], &values, || at) {
             return Some(Err(e));
         }
         self.records += 1;
-        Some(Ok(to_record(
-            DataKind::Increments,
-            &values,
-            self.timing.nominal(),
-        )))
+        self.interval = interval;
+        Some(Ok(to_record(DataKind::Increments, &values, interval.dt)))
     }
 }
 
 /// Parses one CSV record line of `columns` values and checks its numbers
-/// and time.
+/// and time; the record's interval beside them.
 #[inline]
 fn csv_values(
     line: &[u8],
@@ -432,7 +456,7 @@ fn csv_values(
     kind: DataKind,
     columns: usize,
     timing: &mut Timing,
-) -> Result<[f64; MAX_COLUMNS], DataError> {
+) -> Result<([f64; MAX_COLUMNS], Interval), DataError> {
     let values = csv::parse_values(line, columns).map_err(|e| match e {
         FieldError::ColumnCount(found) => DataError::ColumnCount {
             line: line_no,
@@ -452,8 +476,8 @@ fn csv_values(
             text: excerpt(csv::field(line, c)),
         });
     }
-    timing.accept(values[0], || Position::Line(line_no))?;
-    Ok(values)
+    let interval = timing.accept(values[0], || Position::Line(line_no))?;
+    Ok((values, interval))
 }
 
 /// Names a failed refill of a CSV stream by the line it was reading.

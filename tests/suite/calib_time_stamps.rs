@@ -1,0 +1,178 @@
+//! Time stamps as loggers write them (SPEC §2a): records whose intervals
+//! jitter by up to 10 %, and gaps where records were lost.
+//!
+//! A jittered run is made exactly, without a jittering simulator: the
+//! paper's unit is simulated at ten times the nominal rate with even
+//! stamps, and consecutive records are summed in groups of 9, 10 or 11.
+//! Each group's increments are then exact over its own interval (noise
+//! included), stamped at its end. The same fine records summed in groups
+//! of 10 are the evenly stamped run of the same unit, motion and noise,
+//! so the two calibrations differ only by how the run was cut.
+
+use std::sync::atomic::AtomicBool;
+
+use sinscal::calib::sources::SliceSource;
+use sinscal::calib::{estimate, CalibError, CalibrationResult, EstimateOptions, RunInfo};
+use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal::nav::Site;
+use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
+use sinscal::Record;
+
+/// Nominal rate of the calibrated runs, Hz, and fine records per nominal
+/// step.
+const RATE_HZ: f64 = 20.0;
+const FINE: usize = 10;
+
+/// The paper's unit on `ten-position` with 60 s dwells, at ten times the
+/// nominal rate.
+fn fine_records() -> Vec<Record> {
+    let cfg = SimConfig {
+        site: Site::REFERENCE,
+        sample_rate_hz: RATE_HZ * FINE as f64,
+        scheme: Scheme::builtin("ten-position", 60.0).unwrap(),
+        params: ErrorParameters::paper(),
+        effects: Effects::none(),
+        noise: Noise::default_navigation_grade(),
+        initial_attitude_error_deg: [0.0; 3],
+        seed: 11,
+        thermal: None,
+        temperature: None,
+    };
+    simulate(&cfg).unwrap().collect()
+}
+
+/// Consecutive fine records summed in groups of the sizes `size(k)`
+/// gives, each stamped at its last record's end.
+fn grouped(fine: &[Record], mut size: impl FnMut(usize) -> usize) -> Vec<Record> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    loop {
+        let n = size(out.len());
+        let Some(group) = fine.get(at..at + n) else {
+            return out;
+        };
+        let mut r = Record {
+            t: group[n - 1].t,
+            ..Record::default()
+        };
+        for g in group {
+            for i in 0..3 {
+                r.dtheta[i] += g.dtheta[i];
+                r.dv[i] += g.dv[i];
+            }
+        }
+        out.push(r);
+        at += n;
+    }
+}
+
+/// Group sizes 9, 10, 11 in a scrambled order (the top bits of a Weyl
+/// sequence), a quarter each short and long: steps ±10 % off nominal.
+fn jittered_size(k: usize) -> usize {
+    match (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 62 {
+        0 => FINE - 1,
+        3 => FINE + 1,
+        _ => FINE,
+    }
+}
+
+fn calibrate(records: &[Record]) -> Result<CalibrationResult, CalibError> {
+    estimate(
+        &SliceSource(records),
+        &RunInfo {
+            site: Site::REFERENCE,
+            sample_rate_hz: RATE_HZ,
+        },
+        &EstimateOptions::default(),
+        &mut |_| {},
+        &AtomicBool::new(false),
+    )
+}
+
+/// The largest difference between two results over the 24 parameters, in
+/// σ of the reference, and the parameter it is on.
+fn largest_difference(a: &CalibrationResult, reference: &CalibrationResult) -> (f64, &'static str) {
+    PARAMETERS
+        .iter()
+        .map(|p| {
+            let d = a.value(p.name).unwrap() - reference.value(p.name).unwrap();
+            (d.abs() / reference.sigma(p.name).unwrap(), p.name)
+        })
+        .fold((0.0, ""), |m, x| if x.0 > m.0 { x } else { m })
+}
+
+/// Records with stamps in (from, to] removed.
+fn without(records: &[Record], from: f64, to: f64) -> Vec<Record> {
+    records
+        .iter()
+        .filter(|r| r.t <= from || r.t > to)
+        .copied()
+        .collect()
+}
+
+#[test]
+fn jittered_stamps_and_a_gap_at_rest_calibrate_as_the_even_run_and_a_gap_in_a_turn_is_refused() {
+    let fine = fine_records();
+    let even = grouped(&fine, |_| FINE);
+    let jittered = grouped(&fine, jittered_size);
+    let steps = jittered.windows(2).map(|w| (w[1].t - w[0].t) * RATE_HZ);
+    let (short, long) = steps.fold((f64::MAX, 0.0f64), |(s, l), x| (s.min(x), l.max(x)));
+    assert!(short < 0.91 && long > 1.09, "steps from {short} to {long} of nominal");
+
+    let reference = calibrate(&even).unwrap();
+    assert!(reference.gaps.is_empty());
+    let from_jittered = calibrate(&jittered).unwrap();
+    let (worst, name) = largest_difference(&from_jittered, &reference);
+    println!("jittered against even: largest difference {worst:.3} σ ({name})");
+    assert!(worst < 0.3, "{name} differs by {worst:.2} σ");
+    assert!(from_jittered.gaps.is_empty());
+
+    // The jittered increments read as if each covered the nominal step:
+    // what the estimator did before stamps were read. The test can fail.
+    let restamped: Vec<Record> = jittered
+        .iter()
+        .enumerate()
+        .map(|(k, r)| Record {
+            t: (k + 1) as f64 / RATE_HZ,
+            ..*r
+        })
+        .collect();
+    let nominal = calibrate(&restamped).map(|r| largest_difference(&r, &reference));
+    println!("jittered read at nominal steps against even: {nominal:?}");
+    assert!(
+        !matches!(nominal, Ok((off, _)) if off < 1.0),
+        "nominal steps came within a σ: {nominal:?}"
+    );
+
+    // Two seconds lost in the middle of the third dwell (148 s to 208 s).
+    let gap_at = 170.0;
+    let last_before = jittered.iter().rev().find(|r| r.t <= gap_at).unwrap().t;
+    let with_gap = without(&jittered, gap_at, gap_at + 2.0);
+    let bridged = calibrate(&with_gap).unwrap();
+    let (worst, name) = largest_difference(&bridged, &from_jittered);
+    println!("gap bridged against none: largest difference {worst:.3} σ ({name})");
+    assert!(worst < 0.3, "{name} differs by {worst:.2} σ");
+    assert_eq!(bridged.gaps.len(), 1, "{:?}", bridged.gaps);
+    let gap = &bridged.gaps[0];
+    assert!(gap.bridged && gap.t_s == last_before);
+    assert!((gap.length_s - 2.0).abs() < 0.06, "{gap:?}");
+    assert!(
+        bridged
+            .warnings
+            .iter()
+            .any(|w| w.contains(&format!("after t = {last_before:.3} s")) && w.contains("bridged")),
+        "{:?}",
+        bridged.warnings
+    );
+
+    // One second lost in the first turn (Y+90 from 60 s to 69.5 s).
+    let turn_at = 64.0;
+    let last_before = jittered.iter().rev().find(|r| r.t <= turn_at).unwrap().t;
+    let err = calibrate(&without(&jittered, turn_at, turn_at + 1.0)).unwrap_err();
+    let msg = err.to_string();
+    assert!(matches!(err, CalibError::Unusable(_)), "{msg}");
+    assert!(
+        msg.contains(&format!("after t = {last_before:.3} s")) && msg.contains("in the motion"),
+        "{msg}"
+    );
+}
