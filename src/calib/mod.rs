@@ -28,6 +28,7 @@ pub mod sensitivity;
 pub mod sources;
 pub mod temperature;
 pub mod thermal_states;
+pub mod timed;
 pub mod walk;
 
 pub use effect_model::{Effect, ErrorModel};

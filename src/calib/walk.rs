@@ -15,7 +15,6 @@ use super::effect_sensitivity::{
 };
 use super::error::CalibError;
 use super::filter::{error_dynamics, SystematicFilter};
-use super::gaps::{timed_records, Timed};
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
 use super::priors::{initial_navigation_covariance, prior_sigma};
@@ -23,6 +22,7 @@ use super::run::{RecordSource, RunInfo};
 use super::sensitivity::base_columns;
 use super::sensitivity::Rows;
 use super::temperature::TemperatureCurve;
+use super::timed::{timed_records, Timed};
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{Compensator, N_PARAMS};
 use crate::nav::attitude::skew;

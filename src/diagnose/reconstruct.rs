@@ -22,8 +22,8 @@ use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::error::DiagnoseError;
-use crate::calib::gaps::timed_records;
 use crate::calib::prescan::Prescan;
+use crate::calib::timed::timed_records;
 use crate::calib::{RecordSource, SegmentKind};
 use crate::model::Compensator;
 use crate::nav::attitude::rotvec_to_dcm;

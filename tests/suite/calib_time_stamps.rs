@@ -7,14 +7,17 @@
 //! Each group's increments are then exact over its own interval (noise
 //! included), stamped at its end. The same fine records summed in groups
 //! of 10 are the evenly stamped run of the same unit, motion and noise,
-//! so the two calibrations differ only by how the run was cut.
+//! so the two calibrations (and noise analyses) differ only by how the run
+//! was cut.
 
 use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::sources::SliceSource;
 use sinscal::calib::{estimate, CalibError, CalibrationResult, EstimateOptions, RunInfo};
+use sinscal::diagnose::{DiagnoseOptions, Verdict};
 use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::Site;
+use sinscal::noise::{analyse, NoiseOptions};
 use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
 use sinscal::Record;
 
@@ -117,7 +120,10 @@ fn jittered_stamps_and_a_gap_at_rest_calibrate_as_the_even_run_and_a_gap_in_a_tu
     let jittered = grouped(&fine, jittered_size);
     let steps = jittered.windows(2).map(|w| (w[1].t - w[0].t) * RATE_HZ);
     let (short, long) = steps.fold((f64::MAX, 0.0f64), |(s, l), x| (s.min(x), l.max(x)));
-    assert!(short < 0.91 && long > 1.09, "steps from {short} to {long} of nominal");
+    assert!(
+        short < 0.91 && long > 1.09,
+        "steps from {short} to {long} of nominal"
+    );
 
     let reference = calibrate(&even).unwrap();
     assert!(reference.gaps.is_empty());
@@ -171,6 +177,99 @@ fn jittered_stamps_and_a_gap_at_rest_calibrate_as_the_even_run_and_a_gap_in_a_tu
     let err = calibrate(&without(&jittered, turn_at, turn_at + 1.0)).unwrap_err();
     let msg = err.to_string();
     assert!(matches!(err, CalibError::Unusable(_)), "{msg}");
+    assert!(
+        msg.contains(&format!("after t = {last_before:.3} s")) && msg.contains("in the motion"),
+        "{msg}"
+    );
+}
+
+/// The white noise terms of the noise analysis over the dwells.
+fn white_noise(records: &[Record]) -> [f64; 6] {
+    let report = analyse(
+        &SliceSource(records),
+        &RunInfo {
+            site: Site::REFERENCE,
+            sample_rate_hz: RATE_HZ,
+        },
+        &NoiseOptions::default(),
+        &AtomicBool::new(false),
+    )
+    .unwrap();
+    let (g, a) = (&report.gyro, &report.accel);
+    [
+        g.x.arw_deg_rt_h,
+        g.y.arw_deg_rt_h,
+        g.z.arw_deg_rt_h,
+        a.x.vrw_ug_rt_hz,
+        a.y.vrw_ug_rt_hz,
+        a.z.vrw_ug_rt_hz,
+    ]
+}
+
+/// The noise analysis reads jittered stamps and a gap at rest as it reads
+/// the even run: taken as increments over nominal steps, a resting
+/// accelerometer's jittered records differ by g·(Δt_k − Δt_{k−1}), some
+/// thousand times their noise, and a cluster across a gap would hold
+/// two seconds too few of gravity.
+#[test]
+fn the_noise_analysis_reads_jittered_stamps_and_a_gap_at_rest_as_the_even_run() {
+    let fine = fine_records();
+    let even = white_noise(&grouped(&fine, |_| FINE));
+    let jittered = grouped(&fine, jittered_size);
+    let runs = [
+        ("jittered", white_noise(&jittered)),
+        ("gap", white_noise(&without(&jittered, 170.0, 172.0))),
+    ];
+    let truth = Noise::default_navigation_grade();
+    for (what, got) in runs {
+        for (i, (g, e)) in got.iter().zip(even).enumerate() {
+            println!("{what} axis {i}: {g:.4e} against {e:.4e} even");
+            assert!((g / e - 1.0).abs() < 0.03, "{what} axis {i}: {g} vs {e}");
+        }
+    }
+    // The even run's own terms are the simulated ones.
+    for (i, (e, t)) in even
+        .iter()
+        .zip(
+            [truth.gyro_arw_deg_rt_h; 3]
+                .into_iter()
+                .chain([truth.accel_vrw_ug_rt_hz; 3]),
+        )
+        .enumerate()
+    {
+        assert!((e / t - 1.0).abs() < 0.1, "axis {i}: {e} vs {t}");
+    }
+}
+
+/// The discrepancy workflow bridges and refuses as the calibration does:
+/// a jittered clean run with a gap at rest names nothing, its
+/// calibrations report the gap, and a gap in a turn refuses it.
+#[test]
+fn the_discrepancy_workflow_bridges_a_gap_at_rest_and_refuses_one_in_a_turn() {
+    let jittered = grouped(&fine_records(), jittered_size);
+    let diagnose = |records: &[Record]| {
+        sinscal::diagnose::diagnose(
+            &SliceSource(records),
+            &RunInfo {
+                site: Site::REFERENCE,
+                sample_rate_hz: RATE_HZ,
+            },
+            &DiagnoseOptions::default(),
+            &mut |_| {},
+            &AtomicBool::new(false),
+        )
+    };
+    let report = diagnose(&without(&jittered, 170.0, 172.0)).unwrap();
+    assert!(report.named.is_empty(), "{}", report.verdict);
+    assert_eq!(report.verdict, Verdict::NoSignificantEffect);
+    for result in [&report.base_calibration, &report.calibration] {
+        assert_eq!(result.gaps.len(), 1, "{:?}", result.gaps);
+        assert!(result.gaps[0].bridged);
+    }
+    let last_before = jittered.iter().rev().find(|r| r.t <= 64.0).unwrap().t;
+    let msg = diagnose(&without(&jittered, 64.0, 65.0))
+        .unwrap_err()
+        .to_string();
     assert!(
         msg.contains(&format!("after t = {last_before:.3} s")) && msg.contains("in the motion"),
         "{msg}"

@@ -474,9 +474,15 @@ fn a_step_shorter_than_the_tolerance_zero_or_negative_is_refused_naming_the_line
         "{msg}"
     );
     let msg = csv_error(&fifth_line("0.03,0,0,0,0,0,0"));
-    assert!(msg.starts_with("line 5: time 0.03 does not increase"), "{msg}");
+    assert!(
+        msg.starts_with("line 5: time 0.03 does not increase"),
+        "{msg}"
+    );
     let msg = csv_error(&fifth_line("0.025,0,0,0,0,0,0"));
-    assert!(msg.starts_with("line 5: time 0.025 does not increase"), "{msg}");
+    assert!(
+        msg.starts_with("line 5: time 0.025 does not increase"),
+        "{msg}"
+    );
     // 9.9 % short or long passes (and the step after it, as far off the
     // other way).
     for ok in ["0.03901,0,0,0,0,0,0", "0.04099,0,0,0,0,0,0"] {
