@@ -313,9 +313,10 @@ impl Segmenter {
 
     /// Adds a record of interval `dt` to the open block's sums and noise.
     fn add_to_block(&mut self, r: &Record, dt: f64) {
+        let per_s = 1.0 / dt;
         let rates = MeanRates {
-            omega_b: Vector3::from(r.dtheta) / dt,
-            f_b: Vector3::from(r.dv) / dt,
+            omega_b: Vector3::from(r.dtheta) * per_s,
+            f_b: Vector3::from(r.dv) * per_s,
             dt,
         };
         let b = &mut self.block;
@@ -323,7 +324,7 @@ impl Segmenter {
             let d = &mut self.block_diffs;
             d.d2_theta += (rates.omega_b - p.omega_b).norm_squared();
             d.d2_v += (rates.f_b - p.f_b).norm_squared();
-            d.weight += 1.0 / dt + 1.0 / p.dt;
+            d.weight += per_s + 1.0 / p.dt;
             d.n += 1;
         }
         b.duration += dt;

@@ -48,6 +48,8 @@ pub(crate) fn first_non_finite(values: &[f64]) -> Option<usize> {
 #[derive(Clone, Debug)]
 pub(crate) struct Timing {
     intervals: Intervals,
+    /// sample_rate_hz, 1/s.
+    per_nominal: f64,
     previous: Option<f64>,
     /// Normal steps, their sum (s) and the sums of their relative
     /// deviations from nominal and its square.
@@ -65,6 +67,7 @@ impl Timing {
         }
         Ok(Timing {
             intervals: Intervals::new(sample_rate_hz),
+            per_nominal: sample_rate_hz,
             previous: None,
             normal: 0,
             span: 0.0,
@@ -117,14 +120,20 @@ impl Timing {
                 }
                 StepKind::Gap => self.gaps += 1,
                 StepKind::Normal => {
-                    let dev = step / nominal - 1.0;
+                    let dev = step * self.per_nominal - 1.0;
                     self.normal += 1;
                     self.span += step;
                     self.sum_dev += dev;
                     self.sum_dev2 += dev * dev;
                 }
             }
-            if self.normal + self.gaps >= MEAN_RATE_AFTER_STEPS {
+            // The mean within the fixed tolerance needs no more (the
+            // common case, checked without a division on every step).
+            let steps = self.normal + self.gaps;
+            if steps >= MEAN_RATE_AFTER_STEPS
+                && (self.gaps > self.normal
+                    || self.sum_dev.abs() > MEAN_RATE_TOLERANCE * self.normal as f64)
+            {
                 self.check_mean_rate(&at)?;
             }
         }
