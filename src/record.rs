@@ -58,9 +58,34 @@ impl StepKind {
     /// The kind of a step of `step` seconds at nominal step `nominal`.
     #[inline]
     pub fn of(step: f64, nominal: f64) -> Self {
-        if step > (1.0 + STEP_TOLERANCE) * nominal * (1.0 + STEP_ROUNDING) {
+        StepBounds::new(nominal).kind(step)
+    }
+}
+
+/// The bounds of [`StepKind`] at one nominal step, worked out once for a
+/// run rather than at every record.
+#[derive(Clone, Copy, Debug)]
+pub struct StepBounds {
+    /// Longest normal step, s.
+    gap_above: f64,
+    /// Shortest normal step, s.
+    normal_from: f64,
+}
+
+impl StepBounds {
+    pub fn new(nominal: f64) -> Self {
+        StepBounds {
+            gap_above: (1.0 + STEP_TOLERANCE) * nominal * (1.0 + STEP_ROUNDING),
+            normal_from: (1.0 - STEP_TOLERANCE) * nominal * (1.0 - STEP_ROUNDING),
+        }
+    }
+
+    /// The kind of a step of `step` seconds.
+    #[inline]
+    pub fn kind(&self, step: f64) -> StepKind {
+        if step > self.gap_above {
             StepKind::Gap
-        } else if step >= (1.0 - STEP_TOLERANCE) * nominal * (1.0 - STEP_ROUNDING) {
+        } else if step >= self.normal_from {
             StepKind::Normal
         } else {
             StepKind::TooShort
@@ -108,14 +133,17 @@ pub struct Interval {
 #[derive(Clone, Copy, Debug)]
 pub struct Intervals {
     nominal: f64,
+    bounds: StepBounds,
     previous: Option<f64>,
 }
 
 impl Intervals {
     /// For a run at `sample_rate_hz`.
     pub fn new(sample_rate_hz: f64) -> Self {
+        let nominal = 1.0 / sample_rate_hz;
         Intervals {
-            nominal: 1.0 / sample_rate_hz,
+            nominal,
+            bounds: StepBounds::new(nominal),
             previous: None,
         }
     }
@@ -125,33 +153,48 @@ impl Intervals {
         self.nominal
     }
 
+    /// The stamp of the last record taken, if any.
+    pub fn previous(&self) -> Option<f64> {
+        self.previous
+    }
+
     /// The interval of the record stamped `t`, the next in the run.
     #[inline]
     pub fn next(&mut self, t: f64) -> Interval {
-        let interval = match self.previous {
-            Some(previous) if StepKind::of(t - previous, self.nominal) == StepKind::Gap => {
-                Interval {
-                    dt: self.nominal,
-                    gap: Some(Gap {
-                        t_start: previous,
-                        t_end: t - self.nominal,
-                    }),
-                    from_stamps: false,
-                }
-            }
-            Some(previous) => Interval {
-                dt: t - previous,
+        self.next_classified(t).0
+    }
+
+    /// [`Intervals::next`], and the kind of the step to `t` (`None` for
+    /// the first record): what a reader checks, from the one comparison.
+    #[inline]
+    pub fn next_classified(&mut self, t: f64) -> (Interval, Option<StepKind>) {
+        let Some(previous) = self.previous.replace(t) else {
+            return (self.nominal_step(None), None);
+        };
+        let step = t - previous;
+        let kind = self.bounds.kind(step);
+        let interval = match kind {
+            StepKind::Gap => self.nominal_step(Some(Gap {
+                t_start: previous,
+                t_end: t - self.nominal,
+            })),
+            StepKind::Normal | StepKind::TooShort => Interval {
+                dt: step,
                 gap: None,
                 from_stamps: true,
             },
-            None => Interval {
-                dt: self.nominal,
-                gap: None,
-                from_stamps: false,
-            },
         };
-        self.previous = Some(t);
-        interval
+        (interval, Some(kind))
+    }
+
+    /// The interval of a record the stamps give none for: one nominal
+    /// step, after `gap` if there is one.
+    fn nominal_step(&self, gap: Option<Gap>) -> Interval {
+        Interval {
+            dt: self.nominal,
+            gap,
+            from_stamps: false,
+        }
     }
 }
 

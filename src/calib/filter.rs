@@ -176,11 +176,18 @@ impl SystematicFilter {
             Rows::Velocity => 3,
         };
         let v = col * self.scale[param];
-        for k in 0..3 {
-            let (a, b) = (r0 + k, param);
-            self.s0[(a, b)] += v[k];
-            self.s1[(a, b)] += tau * v[k];
-            self.s2[(a, b)] += tau * tau * v[k];
+        let terms = [
+            (&mut self.s0, v),
+            (&mut self.s1, v * tau),
+            (&mut self.s2, v * (tau * tau)),
+        ];
+        for (s, add) in terms {
+            // Rows r0..r0 + 3 of column `param`, one bounds check (it runs
+            // 24 times a record).
+            let at = param * NAV + r0;
+            for (x, a) in s.as_mut_slice()[at..at + 3].iter_mut().zip(add.iter()) {
+                *x += a;
+            }
         }
     }
 

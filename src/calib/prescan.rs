@@ -10,7 +10,7 @@ use super::gaps::{bridge_gaps, BridgedGap};
 use super::options::EstimateOptions;
 use super::run::{RecordSource, RunInfo};
 use super::segment::{DetectOptions, RunSegment, SegmentKind, Segmenter, StartActivity};
-use crate::record::StepKind;
+use crate::record::{StepBounds, StepKind};
 
 /// What the pre-scan learns about a run.
 #[derive(Clone, Debug)]
@@ -50,13 +50,14 @@ pub fn prescan(
     cancel: &AtomicBool,
 ) -> Result<Prescan, CalibError> {
     let dt = 1.0 / run.sample_rate_hz;
+    let steps = StepBounds::new(dt);
     let mut seg = Segmenter::new(*detect, run.sample_rate_hz, run.site.gravity());
     let (mut n, mut t_begin, mut t_end) = (0u64, f64::NAN, f64::NAN);
     for r in source.records()? {
         let r = r?;
         if n == 0 {
             t_begin = r.t - dt;
-        } else if StepKind::of(r.t - t_end, dt) == StepKind::TooShort {
+        } else if steps.kind(r.t - t_end) == StepKind::TooShort {
             return Err(CalibError::Unusable(format!(
                 "record {}: time {} s follows {} s, a step more than {} % shorter than the \
                  nominal {} s",

@@ -161,12 +161,12 @@ impl DiffSums {
     }
 }
 
-/// A record's mean rate and specific force and its interval.
+/// A record's mean rate and specific force, and 1/Δt.
 #[derive(Clone, Copy)]
 struct MeanRates {
     omega_b: Vector3<f64>,
     f_b: Vector3<f64>,
-    dt: f64,
+    per_s: f64,
 }
 
 /// Mean and spread of a quantity over blocks.
@@ -317,14 +317,14 @@ impl Segmenter {
         let rates = MeanRates {
             omega_b: Vector3::from(r.dtheta) * per_s,
             f_b: Vector3::from(r.dv) * per_s,
-            dt,
+            per_s,
         };
         let b = &mut self.block;
         if let Some(p) = self.prev.filter(|_| b.duration > 0.0) {
             let d = &mut self.block_diffs;
             d.d2_theta += (rates.omega_b - p.omega_b).norm_squared();
             d.d2_v += (rates.f_b - p.f_b).norm_squared();
-            d.weight += per_s + 1.0 / p.dt;
+            d.weight += per_s + p.per_s;
             d.n += 1;
         }
         b.duration += dt;

@@ -24,7 +24,10 @@ pub enum Rows {
 }
 
 /// Calls `add(param_index, rows, column)` for every non-zero column of the
-/// base model's sensitivity over one record.
+/// base model's sensitivity over one record. Inlined: it runs for every
+/// record of every pass, and its closure's calls then fold into the
+/// caller's loop.
+#[inline(always)]
 pub fn base_columns(
     c_b_n: &Matrix3<f64>,
     dtheta: &Vector3<f64>,

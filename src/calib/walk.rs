@@ -2,7 +2,7 @@
 //! (source, options, scan, noise densities), the start alignment, and one
 //! navigated walk over the compensated records that hands each window to
 //! the estimator. Every record is taken over its own interval from its
-//! stamps, and gaps at rest are bridged (`gaps::timed_records`).
+//! stamps, and gaps at rest are bridged (`timed::timed_records`).
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -22,7 +22,7 @@ use super::run::{RecordSource, RunInfo};
 use super::sensitivity::base_columns;
 use super::sensitivity::Rows;
 use super::temperature::TemperatureCurve;
-use super::timed::{timed_records, Timed};
+use super::timed::{timed_records, Timed, TimedRecords};
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{Compensator, N_PARAMS};
 use crate::nav::attitude::skew;
@@ -164,6 +164,92 @@ fn remove_known_effects(r: &mut Record, removed: &[(EffectParameter, f64)], m: &
     }
 }
 
+/// The compensated records around the one being walked: up to
+/// [`NEIGHBOURS`] on each side, the effect columns taking rates of change
+/// from both.
+struct Around<'a> {
+    records: TimedRecords<'a>,
+    comp: &'a Compensator,
+    held: VecDeque<Timed>,
+    /// Index in `held` of the record being walked.
+    at: usize,
+}
+
+impl<'a> Around<'a> {
+    fn new(records: TimedRecords<'a>, comp: &'a Compensator) -> Result<Self, CalibError> {
+        let mut around = Around {
+            records,
+            comp,
+            held: VecDeque::with_capacity(2 * NEIGHBOURS + 1),
+            at: 0,
+        };
+        for _ in 0..=NEIGHBOURS {
+            around.read_one()?;
+        }
+        Ok(around)
+    }
+
+    /// Reads and compensates the next record of the run, if any.
+    #[inline(always)]
+    fn read_one(&mut self) -> Result<(), CalibError> {
+        if let Some(r) = self.records.next() {
+            let r = r?;
+            self.held.push_back(Timed {
+                record: self.comp.record(&r.record, r.dt),
+                ..r
+            });
+        }
+        Ok(())
+    }
+
+    /// The record being walked, none past the run's end.
+    fn current(&self) -> Option<Timed> {
+        self.held.get(self.at).copied()
+    }
+
+    /// Moves on by one record, keeping [`NEIGHBOURS`] behind the next.
+    /// Inlined, as `base_columns` is: both run for every record of every
+    /// pass.
+    #[inline(always)]
+    fn advance(&mut self) -> Result<(), CalibError> {
+        self.read_one()?;
+        if self.at == NEIGHBOURS {
+            self.held.pop_front();
+        } else {
+            self.at += 1;
+        }
+        Ok(())
+    }
+
+    /// The motion of the record being walked and its neighbours, for the
+    /// effect columns: the neighbours' mean rates over this record's
+    /// interval, so the differences are taken on an even grid.
+    fn motion(&self, ctx: &PassContext) -> RecordMotion {
+        let Timed { record: r, dt, .. } = self.held[self.at];
+        let jacobian = self.comp.accel_jacobian(&Vector3::from(r.dv), dt);
+        let last = self.held.len() - 1;
+        let over_dt = |j: usize, inc: fn(&Record) -> [f64; 3]| {
+            let n = self.held[(self.at + j).saturating_sub(NEIGHBOURS).min(last)];
+            Vector3::from(inc(&n.record)) * (dt / n.dt)
+        };
+        let t_mid = r.t - 0.5 * dt;
+        let (delta_c, rate_c_per_s) = ctx
+            .temperature
+            .as_ref()
+            .map_or((0.0, 0.0), |c| (c.delta_c(t_mid), c.rate_c_per_s(t_mid)));
+        RecordMotion {
+            dtheta: std::array::from_fn(|j| over_dt(j, |r| r.dtheta)),
+            dv: std::array::from_fn(|j| over_dt(j, |r| r.dv)),
+            dt,
+            t_mid: t_mid - ctx.scan.t_begin,
+            delta_c,
+            rate_c_per_s,
+            accel_jacobian: jacobian,
+            accel_jacobian_inv: jacobian.try_inverse().unwrap_or(jacobian),
+        }
+    }
+}
+
 /// What a window's end offers the estimator that walks the run.
 pub(crate) struct WindowEnd<'a> {
     pub t_start: f64,
@@ -198,60 +284,17 @@ pub(crate) fn walk(
     let mut c_prev = nav.c_b_n();
     let (mut in_window, mut index, mut count) = (0usize, 0usize, 0u64);
     let mut t_ws = ctx.scan.t_begin;
-    // Two records of look-ahead: the effect columns take rates of change
-    // from the records on both sides.
-    let mut records = timed_records(ctx.source, ctx.scan, ctx.run.sample_rate_hz)?;
-    let mut compensated = move || -> Result<Option<Timed>, CalibError> {
-        Ok(match records.next() {
-            Some(r) => {
-                let r = r?;
-                Some(Timed {
-                    record: comp.record(&r.record, r.dt),
-                    ..r
-                })
-            }
-            None => None,
-        })
-    };
-    // around[NEIGHBOURS] is the record being walked.
-    let mut around: VecDeque<Timed> = VecDeque::with_capacity(2 * NEIGHBOURS + 1);
-    for _ in 0..=NEIGHBOURS {
-        if let Some(r) = compensated()? {
-            around.push_back(r);
-        }
-    }
-    let mut at = 0usize;
-    while at < around.len() {
-        let Timed {
-            record: mut r,
-            dt,
-            extra,
-        } = around[at];
-        let motion = (!effects.is_empty()).then(|| {
-            let jacobian = comp.accel_jacobian(&Vector3::from(r.dv), dt);
-            let near = |j: usize| around[(at + j).saturating_sub(NEIGHBOURS).min(around.len() - 1)];
-            // The neighbours' mean rates over this record's interval: the
-            // differences of the effect columns are taken on an even grid.
-            let over_dt = |j: usize, inc: fn(&Record) -> [f64; 3]| {
-                let n = near(j);
-                Vector3::from(inc(&n.record)) * (dt / n.dt)
-            };
-            let t_mid = r.t - 0.5 * dt;
-            let (delta_c, rate_c_per_s) = ctx
-                .temperature
-                .as_ref()
-                .map_or((0.0, 0.0), |c| (c.delta_c(t_mid), c.rate_c_per_s(t_mid)));
-            RecordMotion {
-                dtheta: std::array::from_fn(|j| over_dt(j, |r| r.dtheta)),
-                dv: std::array::from_fn(|j| over_dt(j, |r| r.dv)),
-                dt,
-                t_mid: t_mid - ctx.scan.t_begin,
-                delta_c,
-                rate_c_per_s,
-                accel_jacobian: jacobian,
-                accel_jacobian_inv: jacobian.try_inverse().unwrap_or(jacobian),
-            }
-        });
+    let mut around = Around::new(
+        timed_records(ctx.source, ctx.scan, ctx.run.sample_rate_hz)?,
+        comp,
+    )?;
+    while let Some(Timed {
+        record: mut r,
+        dt,
+        extra,
+    }) = around.current()
+    {
+        let motion = (!effects.is_empty()).then(|| around.motion(ctx));
         if let Some(m) = &motion {
             remove_known_effects(&mut r, &effects.removed, m);
         }
@@ -277,15 +320,7 @@ pub(crate) fn walk(
                 sens.add_column(N_PARAMS + j, rows, &(c_mid * col_b), tau);
             }
         }
-        // Slide: keep NEIGHBOURS records behind the next one.
-        if let Some(next) = compensated()? {
-            around.push_back(next);
-        }
-        if at == NEIGHBOURS {
-            around.pop_front();
-        } else {
-            at += 1;
-        }
+        around.advance()?;
         if extra {
             continue;
         }

@@ -50,7 +50,6 @@ pub(crate) struct Timing {
     intervals: Intervals,
     /// sample_rate_hz, 1/s.
     per_nominal: f64,
-    previous: Option<f64>,
     /// Normal steps, their sum (s) and the sums of their relative
     /// deviations from nominal and its square.
     normal: u64,
@@ -68,7 +67,6 @@ impl Timing {
         Ok(Timing {
             intervals: Intervals::new(sample_rate_hz),
             per_nominal: sample_rate_hz,
-            previous: None,
             normal: 0,
             span: 0.0,
             sum_dev: 0.0,
@@ -98,47 +96,47 @@ impl Timing {
         t: f64,
         at: impl Fn() -> Position,
     ) -> Result<Interval, DataError> {
-        let nominal = self.nominal();
-        if let Some(previous) = self.previous {
-            let step = t - previous;
-            if step <= 0.0 {
+        let previous = self.intervals.previous();
+        let (interval, kind) = self.intervals.next_classified(t);
+        let (Some(previous), Some(kind)) = (previous, kind) else {
+            return Ok(interval);
+        };
+        match kind {
+            StepKind::TooShort if t <= previous => {
                 return Err(DataError::TimeNotIncreasing {
                     at: at(),
                     t,
                     previous,
-                });
+                })
             }
-            match StepKind::of(step, nominal) {
-                StepKind::TooShort => {
-                    return Err(DataError::TimeStep {
-                        at: at(),
-                        t,
-                        previous,
-                        step,
-                        nominal,
-                    })
-                }
-                StepKind::Gap => self.gaps += 1,
-                StepKind::Normal => {
-                    let dev = step * self.per_nominal - 1.0;
-                    self.normal += 1;
-                    self.span += step;
-                    self.sum_dev += dev;
-                    self.sum_dev2 += dev * dev;
-                }
+            StepKind::TooShort => {
+                return Err(DataError::TimeStep {
+                    at: at(),
+                    t,
+                    previous,
+                    step: interval.dt,
+                    nominal: self.nominal(),
+                })
             }
-            // The mean within the fixed tolerance needs no more (the
-            // common case, checked without a division on every step).
-            let steps = self.normal + self.gaps;
-            if steps >= MEAN_RATE_AFTER_STEPS
-                && (self.gaps > self.normal
-                    || self.sum_dev.abs() > MEAN_RATE_TOLERANCE * self.normal as f64)
-            {
-                self.check_mean_rate(&at)?;
+            StepKind::Gap => self.gaps += 1,
+            StepKind::Normal => {
+                let dev = interval.dt * self.per_nominal - 1.0;
+                self.normal += 1;
+                self.span += interval.dt;
+                self.sum_dev += dev;
+                self.sum_dev2 += dev * dev;
             }
         }
-        self.previous = Some(t);
-        Ok(self.intervals.next(t))
+        // The mean within the fixed tolerance needs no more (the common
+        // case, checked without a division on every step).
+        let steps = self.normal + self.gaps;
+        if steps >= MEAN_RATE_AFTER_STEPS
+            && (self.gaps > self.normal
+                || self.sum_dev.abs() > MEAN_RATE_TOLERANCE * self.normal as f64)
+        {
+            self.check_mean_rate(&at)?;
+        }
+        Ok(interval)
     }
 
     /// The rate the steps show against the metadata's: gaps must stay the
