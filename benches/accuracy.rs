@@ -183,10 +183,10 @@ fn main() {
             temperature: None,
         };
         let opts = EstimateOptions {
-            noise: known_noise.then_some(NoiseDensity {
-                gyro_arw_deg_rt_h: noise.gyro_arw_deg_rt_h,
-                accel_vrw_ug_rt_hz: noise.accel_vrw_ug_rt_hz,
-            }),
+            noise: known_noise.then_some(NoiseDensity::white(
+                noise.gyro_arw_deg_rt_h,
+                noise.accel_vrw_ug_rt_hz,
+            )),
             ..base.clone()
         };
         let res = calibrate_simulated(&cfg, &opts).unwrap();

@@ -389,10 +389,7 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
         scheme,
         site: Site::new(a.latitude, 0.0, 0.0),
         sample_rate_hz: a.rate,
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: a.arw,
-            accel_vrw_ug_rt_hz: a.vrw,
-        },
+        noise: NoiseDensity::white(a.arw, a.vrw),
         initial_attitude_error_deg: a.attitude_error.unwrap_or([0.0; 3]),
     };
     let opts = EstimateOptions {
@@ -453,10 +450,7 @@ fn run_design(a: DesignArgs) -> anyhow::Result<()> {
     };
     let req = DesignRequest {
         target: Some(target),
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: a.arw,
-            accel_vrw_ug_rt_hz: a.vrw,
-        },
+        noise: NoiseDensity::white(a.arw, a.vrw),
         axes: a.axes,
         rate_dps: a.rate_dps,
         accel_dps2: a.accel_dps2,

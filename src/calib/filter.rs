@@ -22,21 +22,28 @@
 //!   record from the zeroth, first and second time moments of the
 //!   per-record columns B_j (the F³ term is below 1e-7 of the rest for 1 s
 //!   windows);
-//! - ARW and VRW are isotropic, so their process noise does not depend on
-//!   the attitude.
+//! - the white noise's process noise is linear in its density in n, so
+//!   Q(T) is kept per window length as its response to each entry of that
+//!   density, and a unit whose axes differ only costs a 3 × 3 rotation;
+//! - a wandering bias (SPEC §2a) acts through the same columns as the
+//!   constant bias, so the window's bias columns couple the wander states
+//!   (`nav_errors`, `wander`) into the navigation errors.
 //!
 //! Parameter states are kept in units of their prior σ so that J starts as
 //! the identity. The navigation update is the Joseph form, expanded for a
 //! measurement that selects the velocity rows.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
 use super::error::CalibError;
+pub use super::nav_errors::NAV;
+use super::nav_errors::{NavErrors, WindowModel};
+use super::noise_model::NoiseModel;
 use super::sensitivity::Rows;
+use super::wander::wander_components;
+use crate::model::params::Group;
+use crate::model::N_PARAMS;
 use crate::nav::attitude::skew;
-
-/// Number of navigation-error states: φ (0..3), δv (3..6).
-pub const NAV: usize = 6;
 
 /// The constant navigation-error dynamics at a fixed site.
 pub fn error_dynamics(omega_ie_n: &Vector3<f64>, f_n: &Vector3<f64>) -> Matrix6<f64> {
@@ -95,17 +102,57 @@ pub struct Innovation {
     pub s: Matrix3<f64>,
 }
 
-/// The navigation part: the bias-free estimate and its covariance.
-#[derive(Clone, Debug)]
-pub struct NavState {
-    pub x: Vector6<f64>,
-    pub p: Matrix6<f64>,
+/// The window matrices of one window length: exp(F T), and the response
+/// of Q(T) to each entry of the white noise's density in n (Q is linear in
+/// it; the density turns with the unit when the axes' noise differs).
+struct WindowCache {
+    t: f64,
+    phi: Matrix6<f64>,
+    /// Q(T) for a unit density on entry (i, j) and (j, i) of the gyro
+    /// block, then of the accelerometer block, i ≤ j.
+    basis: [Matrix6<f64>; 12],
+}
+
+/// The symmetric 3 × 3 entries, i ≤ j, in `WindowCache::basis` order.
+const SYM3: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+impl WindowCache {
+    fn new(f: &Matrix6<f64>, t: f64) -> Self {
+        let basis = std::array::from_fn(|k| {
+            let (block, (i, j)) = (3 * (k / 6), SYM3[k % 6]);
+            let mut qc = Matrix6::zeros();
+            qc[(block + i, block + j)] = 1.0;
+            qc[(block + j, block + i)] = 1.0;
+            process_noise(f, &qc, t)
+        });
+        WindowCache {
+            t,
+            phi: transition(f, t),
+            basis,
+        }
+    }
+
+    /// Q(T) for the white densities `gyro_n`, `accel_n` (3 × 3, in n).
+    fn white_noise(&self, gyro_n: &Matrix3<f64>, accel_n: &Matrix3<f64>) -> Matrix6<f64> {
+        let mut q = Matrix6::zeros();
+        for (k, b) in self.basis.iter().enumerate() {
+            let (i, j) = SYM3[k % 6];
+            let d = if k < 6 { gyro_n } else { accel_n };
+            // An off-diagonal basis carries both (i, j) and (j, i).
+            let v = d[(i, j)];
+            if v != 0.0 {
+                q += b * v;
+            }
+        }
+        q
+    }
 }
 
 /// The filter. `n_p` parameter states follow the navigation states.
 pub struct SystematicFilter {
-    pub nav: NavState,
-    /// Sensitivity of the navigation errors to the (scaled) parameters.
+    /// The bias-free states: navigation errors and any bias wander.
+    pub nav: NavErrors,
+    /// Sensitivity of the bias-free states to the (scaled) parameters.
     v: DMatrix<f64>,
     /// Parameter information and information vector (scaled units).
     j: DMatrix<f64>,
@@ -114,9 +161,9 @@ pub struct SystematicFilter {
     /// Prior σ of each parameter, SI: state i is δp_i / scale_i.
     scale: Vec<f64>,
     f: Matrix6<f64>,
-    qc: Matrix6<f64>,
+    noise: NoiseModel,
     zupt_var: f64,
-    cache: Option<(f64, Matrix6<f64>, Matrix6<f64>)>,
+    cache: Option<WindowCache>,
     // Window accumulators: Σ B_j, Σ τ_j B_j, Σ τ_j² B_j.
     s0: DMatrix<f64>,
     s1: DMatrix<f64>,
@@ -125,35 +172,34 @@ pub struct SystematicFilter {
 
 impl SystematicFilter {
     /// `p0_nav` is the initial navigation covariance; `prior_sigma` the
-    /// prior 1-σ of each parameter state (SI); `arw`, `vrw` the noise
-    /// densities (rad/√s, m/s/√s); `zupt_sigma` the zero-velocity
-    /// measurement σ (m/s).
+    /// prior 1-σ of each parameter state (SI; with wandering biases the
+    /// 24 base parameters must lead); `noise` the sensor noise, whose
+    /// wander over a run of `run_s` seconds becomes states; `zupt_sigma`
+    /// the zero-velocity measurement σ (m/s).
     pub fn new(
         f: Matrix6<f64>,
         p0_nav: &Matrix6<f64>,
         prior_sigma: &[f64],
-        arw: f64,
-        vrw: f64,
+        noise: &NoiseModel,
+        run_s: f64,
         zupt_sigma: f64,
     ) -> Self {
         let n_p = prior_sigma.len();
-        let mut qc = Matrix6::zeros();
-        for i in 0..3 {
-            qc[(i, i)] = arw * arw;
-            qc[(3 + i, 3 + i)] = vrw * vrw;
-        }
+        let wander = if noise.wanders() && n_p >= N_PARAMS {
+            wander_components(noise, run_s)
+        } else {
+            Vec::new()
+        };
+        let nav = NavErrors::new(p0_nav, wander);
         SystematicFilter {
-            nav: NavState {
-                x: Vector6::zeros(),
-                p: *p0_nav,
-            },
-            v: DMatrix::zeros(NAV, n_p),
+            v: DMatrix::zeros(nav.len(), n_p),
+            nav,
             j: DMatrix::identity(n_p, n_p),
             h: DVector::zeros(n_p),
             n_p,
             scale: prior_sigma.to_vec(),
             f,
-            qc,
+            noise: *noise,
             zupt_var: zupt_sigma * zupt_sigma,
             cache: None,
             s0: DMatrix::zeros(NAV, n_p),
@@ -184,85 +230,112 @@ impl SystematicFilter {
         }
     }
 
-    fn window_matrices(&mut self, t: f64) -> (Matrix6<f64>, Matrix6<f64>) {
-        match self.cache {
-            Some((ct, a, q)) if ct == t => (a, q),
-            _ => {
-                let a = transition(&self.f, t);
-                let q = process_noise(&self.f, &self.qc, t);
-                self.cache = Some((t, a, q));
-                (a, q)
-            }
-        }
-    }
-
     /// Propagates over a window of length `t` whose records were added
-    /// with [`SystematicFilter::add_column`], and clears the accumulators.
-    pub fn propagate(&mut self, t: f64) {
-        let (a, q) = self.window_matrices(t);
-        self.nav.x = a * self.nav.x;
-        let p = a * self.nav.p * a.transpose() + q;
-        self.nav.p = (p + p.transpose()) * 0.5;
-        if self.n_p > 0 {
+    /// with [`SystematicFilter::add_column`], and clears the accumulators;
+    /// `c_b_n` is the attitude at the window's end (the white noise's
+    /// density in n when the axes differ).
+    pub fn propagate(&mut self, t: f64, c_b_n: &Matrix3<f64>) {
+        if self.cache.as_ref().is_none_or(|c| c.t != t) {
+            self.cache = Some(WindowCache::new(&self.f, t));
+        }
+        let cache = self.cache.as_ref().expect("window cache set above");
+        let q_white = cache.white_noise(
+            &self.noise.gyro.white_density_n(c_b_n),
+            &self.noise.accel.white_density_n(c_b_n),
+        );
+        let b = if self.n_p > 0 {
             let fm = DMatrix::from_column_slice(NAV, NAV, self.f.as_slice());
-            let am = DMatrix::from_column_slice(NAV, NAV, a.as_slice());
             // B = S0 + F (T S0 − S1) + ½ F² (T² S0 − 2T S1 + S2).
             let first = &self.s0 * t - &self.s1;
             let second = &self.s0 * (t * t) - &self.s1 * (2.0 * t) + &self.s2;
-            let b = &self.s0 + &fm * first + (&fm * &fm) * second * 0.5;
-            self.v = am * &self.v + b;
+            &self.s0 + &fm * first + (&fm * &fm) * second * 0.5
+        } else {
+            DMatrix::zeros(NAV, 0)
+        };
+        let coupling = self.bias_coupling(&b);
+        let window = WindowModel {
+            phi: &cache.phi,
+            q_white: &q_white,
+            coupling: &coupling,
+            t,
+        };
+        let steps = self.nav.wander_steps(t);
+        self.nav.propagate(&window, &steps);
+        if self.n_p > 0 {
+            self.v = self.nav.transition_left(&window, &steps, &self.v);
+            let mut nav_rows = self.v.rows_mut(0, NAV);
+            nav_rows += &b;
             self.s0.fill(0.0);
             self.s1.fill(0.0);
             self.s2.fill(0.0);
         }
     }
 
-    /// Zero-velocity update with the navigated velocity `v_n` (m/s).
-    pub fn update_zero_velocity(&mut self, v_n: &Vector3<f64>) -> Result<Innovation, CalibError> {
+    /// How a constant body bias (gyro x, y, z, accelerometer x, y, z; SI)
+    /// moved the navigation errors over the window: the bias parameters'
+    /// columns of the window's B, unscaled. The wander states act through
+    /// it. Zero when the filter carries no base parameters.
+    fn bias_coupling(&self, b: &DMatrix<f64>) -> Matrix6<f64> {
+        let mut g = Matrix6::zeros();
+        if self.n_p < N_PARAMS || self.nav.len() == NAV {
+            return g;
+        }
+        let first = [Group::GyroBias.first(), Group::AccelBias.first()];
+        for axis in 0..6 {
+            let col = first[axis / 3] + axis % 3;
+            for r in 0..NAV {
+                g[(r, axis)] = b[(r, col)] / self.scale[col];
+            }
+        }
+        g
+    }
+
+    /// Zero-velocity update with the navigated velocity `v_n` (m/s) at
+    /// attitude `c_b_n` (the accelerometers' quanta, a bounded error of
+    /// the velocity, add to the observation's noise along their axes).
+    pub fn update_zero_velocity(
+        &mut self,
+        v_n: &Vector3<f64>,
+        c_b_n: &Matrix3<f64>,
+    ) -> Result<Innovation, CalibError> {
+        let r =
+            Matrix3::identity() * self.zupt_var + self.noise.accel.quantization_covariance_n(c_b_n);
         let nav = &mut self.nav;
         // Bias-free innovation and its covariance.
-        let y_bar = v_n - nav.x.fixed_rows::<3>(3);
-        let p_xv = nav.p.fixed_columns::<3>(3).into_owned(); // 6 × 3
-        let s = p_xv.fixed_rows::<3>(3).into_owned() + Matrix3::identity() * self.zupt_var;
+        let y_bar = v_n - Vector3::new(nav.x[3], nav.x[4], nav.x[5]);
+        let p_xv = nav.p.columns(3, 3).into_owned(); // n × 3
+        let s = Matrix3::from_fn(|i, j| p_xv[(3 + i, j)]) + r;
         let chol = s.cholesky().ok_or_else(|| {
             CalibError::Numerical(
                 "navigation innovation covariance is not positive definite".into(),
             )
         })?;
-        let s_inv = chol.inverse();
-        let k = p_xv * s_inv; // 6 × 3
-        nav.x += k * y_bar;
-        // Joseph form for H = [0 I]: P − K P_v· − P_·v Kᵀ + K S Kᵀ.
-        let k_pv = k * p_xv.transpose();
-        let p = nav.p - k_pv - k_pv.transpose() + k * s * k.transpose();
-        nav.p = (p + p.transpose()) * 0.5;
+        let s_inv = DMatrix::from_column_slice(3, 3, chol.inverse().as_slice());
+        let s_d = DMatrix::from_column_slice(3, 3, s.as_slice());
+        let k = &p_xv * &s_inv; // n × 3
+        let y_d = DVector::from_column_slice(y_bar.as_slice());
+        nav.x += &k * &y_d;
+        // Joseph form for H = [0 I 0]: P − K P_v· − P_·v Kᵀ + K S Kᵀ.
+        let k_pv = &k * p_xv.transpose();
+        let p = &nav.p - &k_pv - k_pv.transpose() + &k * s_d * k.transpose();
+        nav.p = (&p + p.transpose()) * 0.5;
 
         // Innovation sensitivity M = H V; information from this update;
         // then the bias-free gain applied to the sensitivity.
         let m = self.v.rows(3, 3).into_owned(); // 3 × n_p
         if self.n_p > 0 {
-            let s_inv_d = DMatrix::from_column_slice(3, 3, s_inv.as_slice());
-            let mt_sinv = m.transpose() * &s_inv_d; // n_p × 3
+            let mt_sinv = m.transpose() * &s_inv; // n_p × 3
             self.j += &mt_sinv * &m;
-            self.h += &mt_sinv * DVector::from_column_slice(y_bar.as_slice());
-            let kd = DMatrix::from_column_slice(NAV, 3, k.as_slice());
-            self.v -= kd * &m;
+            self.h += &mt_sinv * y_d;
+            self.v -= &k * &m;
         }
         Ok(Innovation { y_bar, m, s })
     }
 
-    fn solve_information(&self) -> Result<DVector<f64>, CalibError> {
-        let chol = self.j.clone().cholesky().ok_or_else(|| {
+    fn information_cholesky(&self) -> Result<nalgebra::Cholesky<f64, nalgebra::Dyn>, CalibError> {
+        self.j.clone().cholesky().ok_or_else(|| {
             CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
-        Ok(chol.solve(&self.h))
-    }
-
-    fn parameter_covariance(&self) -> Result<DMatrix<f64>, CalibError> {
-        let chol = self.j.clone().cholesky().ok_or_else(|| {
-            CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
-        Ok(chol.inverse())
+        })
     }
 
     /// Takes the bias-free navigation-error estimate x̄ out of the state
@@ -274,34 +347,36 @@ impl SystematicFilter {
     /// velocity jumps after a turn, seen on simulated runs), which breaks
     /// the linear model and left σ several times too small. With x̄ alone
     /// the navigation carries the true parameter error V p, which the
-    /// passes make small.
+    /// passes make small. The wander states stay: like the parameters,
+    /// they are fed back only between passes, through the estimate.
     pub fn take_navigation_errors(&mut self) -> (Vector3<f64>, Vector3<f64>) {
-        let x = self.nav.x;
-        self.nav.x = Vector6::zeros();
+        let x = self.nav.take_navigation();
         (
             Vector3::new(x[0], x[1], x[2]),
             Vector3::new(x[3], x[4], x[5]),
         )
     }
 
-    /// The sensitivity V accumulated since the last call (scaled
-    /// parameters), leaving V zero: with no updates in between, that is the
-    /// B of the whole stretch, which the least-squares cross-check needs.
+    /// The sensitivity V of the navigation errors accumulated since the
+    /// last call (scaled parameters), leaving V zero: with no updates in
+    /// between, that is the B of the whole stretch, which the least-squares
+    /// cross-check needs.
     pub fn take_sensitivity(&mut self) -> DMatrix<f64> {
-        let v = self.v.clone();
+        let v = self.v.rows(0, NAV).into_owned();
         self.v.fill(0.0);
         v
     }
 
     /// The sensitivity V of the navigation errors to the (scaled)
     /// parameters, 6 × n_p.
-    pub fn sensitivity(&self) -> &DMatrix<f64> {
-        &self.v
+    pub fn sensitivity(&self) -> DMatrix<f64> {
+        self.v.rows(0, NAV).into_owned()
     }
 
-    /// The scaled parameter estimate J⁻¹ h.
+    /// The scaled parameter estimate J⁻¹ h: the constant part of each
+    /// parameter (the one the innovations' sensitivity M refers to).
     pub fn scaled_estimate(&self) -> Result<DVector<f64>, CalibError> {
-        self.solve_information()
+        Ok(self.information_cholesky()?.solve(&self.h))
     }
 
     /// Prior σ of each parameter (SI): the unit of the scaled states.
@@ -309,42 +384,92 @@ impl SystematicFilter {
         &self.scale
     }
 
-    /// Parameter estimates (SI) and their 1-σ (SI).
-    pub fn parameters(&self) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
-        let p_hat = self.solve_information()?;
-        let cov = self.parameter_covariance()?;
+    /// Parameter estimates (SI) and their 1-σ (SI) over the `elapsed_s`
+    /// seconds walked: a wandering bias as its mean over that time (SPEC
+    /// §2a; the whole run at the end).
+    pub fn parameters(&self, elapsed_s: f64) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
+        let (p, cov) = self.run_mean(elapsed_s, self.n_p)?;
         Ok((0..self.n_p)
             .map(|i| {
                 let s = self.scale[i];
-                (p_hat[i] * s, cov[(i, i)].max(0.0).sqrt() * s)
+                (p[i] * s, cov[(i, i)].max(0.0).sqrt() * s)
             })
             .unzip())
     }
 
-    /// 1-σ (SI) of the first `n` parameters with the others known: the
-    /// inverse of their block of the information. The information of a
+    /// 1-σ (SI) of the first `n` parameters with the others known (the
+    /// inverse of their block of the information: the information of a
     /// set of columns does not depend on which other columns ride along,
-    /// so this is the σ a filter carrying only those `n` would report.
-    pub fn leading_parameter_sigma_si(&self, n: usize) -> Result<Vec<f64>, CalibError> {
-        let block = self.j.view((0, 0), (n, n)).into_owned();
-        let chol = block.cholesky().ok_or_else(|| {
-            CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
-        let cov = chol.inverse();
+    /// so this is the σ a filter carrying only those `n` would report),
+    /// wandering biases as their mean over `elapsed_s`.
+    pub fn leading_parameter_sigma_si(
+        &self,
+        n: usize,
+        elapsed_s: f64,
+    ) -> Result<Vec<f64>, CalibError> {
+        let (_, cov) = self.run_mean(elapsed_s, n)?;
         Ok((0..n)
             .map(|i| cov[(i, i)].max(0.0).sqrt() * self.scale[i])
             .collect())
     }
 
-    /// Parameter covariance (SI).
-    pub fn parameter_covariance_si(&self) -> Result<DMatrix<f64>, CalibError> {
-        let mut cov = self.parameter_covariance()?;
+    /// Parameter covariance (SI), wandering biases as their mean over
+    /// `elapsed_s`.
+    pub fn parameter_covariance_si(&self, elapsed_s: f64) -> Result<DMatrix<f64>, CalibError> {
+        let (_, mut cov) = self.run_mean(elapsed_s, self.n_p)?;
         for i in 0..self.n_p {
             for k in 0..self.n_p {
                 cov[(i, k)] *= self.scale[i] * self.scale[k];
             }
         }
         Ok(cov)
+    }
+
+    /// The first `n` scaled parameters (the others known) and their
+    /// covariance, each wandering bias b turned into its mean over
+    /// `elapsed_s`, b + (∫ w dt)/elapsed. The integral state s is
+    /// x̄_s + V_s p, so with P = J⁻¹: cov(p, s) = P V_sᵀ and
+    /// cov(s) = P̄_ss + V_s P V_sᵀ.
+    fn run_mean(
+        &self,
+        elapsed_s: f64,
+        n: usize,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), CalibError> {
+        let j = self.j.view((0, 0), (n, n)).into_owned();
+        let chol = j.cholesky().ok_or_else(|| {
+            CalibError::Numerical("parameter information is not positive definite".into())
+        })?;
+        let mut p = chol.solve(&self.h.rows(0, n));
+        let mut cov = chol.inverse();
+        let first = [Group::GyroBias.first(), Group::AccelBias.first()];
+        // (parameter index, integral state index) of each wandering bias.
+        let pairs: Vec<(usize, usize)> = (0..6)
+            .filter_map(|axis| {
+                let param = first[axis / 3] + axis % 3;
+                self.nav
+                    .integral_of(axis)
+                    .filter(|_| param < n && elapsed_s > 0.0)
+                    .map(|k| (param, k))
+            })
+            .collect();
+        if pairs.is_empty() {
+            return Ok((p, cov));
+        }
+        let m = pairs.len();
+        let v_s = DMatrix::from_fn(m, n, |r, c| self.v[(pairs[r].1, c)]);
+        let s_hat = DVector::from_fn(m, |r, _| self.nav.x[pairs[r].1]) + &v_s * &p;
+        let cov_ps = &cov * v_s.transpose(); // n × m
+        let p_bar_ss = DMatrix::from_fn(m, m, |r, c| self.nav.p[(pairs[r].1, pairs[c].1)]);
+        let cov_ss = p_bar_ss + &v_s * &cov_ps;
+        // p_rm = p + D s, D[param, r] = 1/(elapsed · scale).
+        let mut d = DMatrix::zeros(n, m);
+        for (r, &(param, _)) in pairs.iter().enumerate() {
+            d[(param, r)] = 1.0 / (elapsed_s * self.scale[param]);
+        }
+        p += &d * s_hat;
+        let cross = &cov_ps * d.transpose();
+        cov = &cov + &cross + cross.transpose() + &d * cov_ss * d.transpose();
+        Ok((p, (&cov + cov.transpose()) * 0.5))
     }
 
     /// 1-σ of the bias-free navigation errors.
@@ -394,7 +519,7 @@ mod tests {
     }
 
     fn check_linear_model_consistency(arw: f64, vrw: f64) {
-        use nalgebra::Matrix6xX;
+        use nalgebra::{Matrix6xX, Vector6};
         use rand::{Rng, SeedableRng};
         use rand_distr::StandardNormal;
         let window = 1.0;
@@ -423,7 +548,8 @@ mod tests {
             let mut normal = || rng.sample::<f64, _>(StandardNormal);
             let p_true: Vec<f64> = (0..n_p).map(|_| normal() * 1e-3).collect();
             let mut x = Vector6::from_fn(|i, _| if i < 3 { 1e-3 } else { 1e-4 });
-            let mut kf = SystematicFilter::new(f, &p0, &prior, arw, vrw, 1e-6);
+            let noise = NoiseModel::white(arw, vrw);
+            let mut kf = SystematicFilter::new(f, &p0, &prior, &noise, 0.0, 1e-6);
             for k in 0..1500 {
                 // Each parameter drives a direction that changes every
                 // 300 s, like a multi-position scheme.
@@ -449,16 +575,16 @@ mod tests {
                 let bp = b_eff * DVector::from_vec(p_true.clone());
                 let w = lq * Vector6::from_fn(|_, _| normal());
                 x = a * x + Vector6::from_column_slice(bp.as_slice()) + w;
-                kf.propagate(window);
+                kf.propagate(window, &Matrix3::identity());
                 let z = Vector3::new(x[3], x[4], x[5]) + Vector3::from_fn(|_, _| normal() * 1e-6);
-                kf.update_zero_velocity(&z).unwrap();
+                kf.update_zero_velocity(&z, &Matrix3::identity()).unwrap();
                 let (phi, dv) = kf.take_navigation_errors();
                 for i in 0..3 {
                     x[i] -= phi[i];
                     x[i + 3] -= dv[i];
                 }
             }
-            let (d, s) = kf.parameters().unwrap();
+            let (d, s) = kf.parameters(0.0).unwrap();
             for j in 0..n_p {
                 z2[j] += ((d[j] - p_true[j]) / s[j]).powi(2);
             }

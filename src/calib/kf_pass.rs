@@ -145,7 +145,7 @@ pub(super) fn kf_pass(
         let d0 = dwell_at(&ctx.scan.segments, w.t_start);
         let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
         if dwell.is_some() || ctx.opts.zupt_in_motion {
-            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
+            let innov = kf.update_zero_velocity(&w.nav.v_n, &w.nav.c_b_n())?;
             if let Some(d) = dwell {
                 dwell_acc[d].add(&innov);
                 check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
@@ -155,7 +155,7 @@ pub(super) fn kf_pass(
             w.corrected = true;
         }
         if w.index % every == 0 || w.index + 1 == n_windows {
-            let (d, s) = kf.parameters()?;
+            let (d, s) = kf.parameters(w.t_end - ctx.scan.t_begin)?;
             history.t.push(w.t_end);
             history.value.push(
                 (0..N_PARAMS)
@@ -171,7 +171,8 @@ pub(super) fn kf_pass(
         Ok(())
     })?;
 
-    let (delta, sigma) = kf.parameters()?;
+    let run_s = ctx.scan.duration_s();
+    let (delta, sigma) = kf.parameters(run_s)?;
     if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {
         return Err(CalibError::Numerical("the filter diverged".into()));
     }
@@ -197,6 +198,6 @@ pub(super) fn kf_pass(
         history,
         dwell_residuals,
         model_check,
-        covariance: Some(kf.parameter_covariance_si()?),
+        covariance: Some(kf.parameter_covariance_si(run_s)?),
     })
 }
