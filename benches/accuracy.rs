@@ -177,7 +177,7 @@ fn main() {
             scheme,
             params: truth,
             effects: Effects::none(),
-            noise,
+            noise: noise.clone(),
             initial_attitude_error_deg: start,
             seed,
             thermal: None,

@@ -211,7 +211,7 @@ impl Simulator {
             wander: BiasWander::new(noise, cfg.seed, traj.duration(), dt),
             vibration: noise
                 .vibration
-                .and_then(|v| FloorVibration::new(&v, cfg.seed, cfg.site.omega_ie_n())),
+                .and_then(|v| FloorVibration::new(&v, cfg.seed, cfg.site.omega_ie_n(), dt)),
             pulses: PulseCounter::new(q_gyro, q_accel),
             params: cfg.params,
             effects: cfg.effects,

@@ -25,7 +25,7 @@ impl PulseCounter {
     /// `accel_mps` (either 0: that triad is not quantized); `None` when
     /// neither is.
     pub fn new(gyro_rad: f64, accel_mps: f64) -> Option<Self> {
-        (gyro_rad > 0.0 || accel_mps > 0.0).then(|| PulseCounter {
+        (gyro_rad > 0.0 || accel_mps > 0.0).then_some(PulseCounter {
             quantum: [
                 gyro_rad, gyro_rad, gyro_rad, accel_mps, accel_mps, accel_mps,
             ],

@@ -335,8 +335,8 @@ impl BiasWander {
                 r.advance(dt, w, out);
             }
         }
-        for c in 0..6 {
-            self.integral[c] += out[c];
+        for (sum, add) in self.integral.iter_mut().zip(out) {
+            *sum += add;
         }
         self.w = w;
         self.elapsed += dt;

@@ -114,7 +114,7 @@ fn measured_noise_is_the_simulated_noise_when_turns_start_between_blocks() {
             scheme: Scheme::builtin("ten-position-9+9", DWELL_S).unwrap(),
             params: ErrorParameters::paper(),
             effects: Effects::none(),
-            noise,
+            noise: noise.clone(),
             initial_attitude_error_deg: [0.1, -0.1, 2.0],
             seed,
             thermal: None,
