@@ -3,6 +3,7 @@
 mod cli_calibrate;
 mod cli_compensate;
 mod cli_noise;
+mod cli_simulate_sensors;
 mod cli_simulate_thermal;
 mod cli_thermal;
 
@@ -277,6 +278,8 @@ struct SimulateArgs {
     height: f64,
     #[command(flatten)]
     thermal: cli_simulate_thermal::ThermalArgs,
+    #[command(flatten)]
+    sensors: cli_simulate_sensors::SensorArgs,
 }
 
 fn scheme_ref(arg: &str) -> anyhow::Result<SchemeRef> {
@@ -296,6 +299,7 @@ fn simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
             .map_err(anyhow::Error::msg)?;
     }
     a.thermal.apply(&mut cfg)?;
+    a.sensors.apply(&mut cfg)?;
     Ok(cfg)
 }
 
@@ -335,10 +339,7 @@ fn nominal_simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
         scheme,
         params,
         effects,
-        noise: Noise {
-            gyro_arw_deg_rt_h: a.arw,
-            accel_vrw_ug_rt_hz: a.vrw,
-        },
+        noise: Noise::white(a.arw, a.vrw),
         initial_attitude_error_deg: attitude,
         seed: a.seed,
         thermal: None,

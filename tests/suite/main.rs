@@ -48,6 +48,7 @@ mod run_store_s3;
 mod scale_out;
 mod sim_closed_form;
 mod sim_hand_turns;
+mod sim_real_sensors;
 mod strapdown_scheme;
 mod thermal_diagnosis;
 mod thermal_ramp;
