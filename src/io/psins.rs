@@ -298,12 +298,16 @@ fn write_records(
         path: data.to_path_buf(),
         source,
     };
-    let options = WriteOptions {
-        comments: vec![format!(
+    let comments = match format {
+        DataFormat::Csv => vec![format!(
             "imported by sinscal {} from the PSINS SIMU log {}",
             env!("CARGO_PKG_VERSION"),
             lines.path.display()
         )],
+        DataFormat::F64le => Vec::new(),
+    };
+    let options = WriteOptions {
+        comments,
         ..WriteOptions::default()
     };
     let mut writer = RecordWriter::create(data, format, &options).map_err(write_err)?;
