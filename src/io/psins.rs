@@ -193,7 +193,7 @@ fn read_header(lines: &mut Lines) -> Result<PsinsHeader, PsinsError> {
         accel_ug_s_per_count: [s[3], s[4], s[5]],
         dither_column: rows.iter().all(|r| r.1.len() == 7),
     };
-    if !(header.interval_ms > 0.0) {
+    if header.interval_ms.is_nan() || header.interval_ms <= 0.0 {
         return Err(lines.error(
             rows[1].0,
             format!("sampling interval {} ms", header.interval_ms),
@@ -202,7 +202,7 @@ fn read_header(lines: &mut Lines) -> Result<PsinsHeader, PsinsError> {
     if !(header.gravity_mps2 > 5.0 && header.gravity_mps2 < 15.0) {
         return Err(lines.error(rows[1].0, format!("g {} m/s²", header.gravity_mps2)));
     }
-    if s[..6].iter().any(|x| !(*x > 0.0)) {
+    if s[..6].iter().any(|x| x.is_nan() || *x <= 0.0) {
         return Err(lines.error(rows[2].0, "every scale must be positive"));
     }
     Ok(header)

@@ -190,7 +190,7 @@ pub fn fit_terms(points: &[CurvePoint], input: &FitInput) -> TermFit {
         let weakest = (0..4)
             .filter(|&k| free[k])
             .map(|k| (k, fit.coef[k] / cov[k].sqrt()))
-            .filter(|(_, z)| !(*z >= RESOLVED_SIGMAS))
+            .filter(|(_, z)| z.is_nan() || *z < RESOLVED_SIGMAS)
             .min_by(|a, b| a.1.total_cmp(&b.1));
         match weakest {
             Some((k, _)) => free[k] = false,
