@@ -85,7 +85,11 @@ pub fn read_curve(
                 above_weight,
             },
         );
-        let (signs, found) = find_departures(points, &fit.terms, &covariance.for_model(&fit.terms));
+        let (signs, found) = find_departures(
+            points,
+            &fit.terms,
+            &covariance.for_model(fit.terms.powers()),
+        );
         (fit, signs, found)
     };
     let all = vec![true; points.len()];

@@ -28,8 +28,6 @@
 
 use nalgebra::DMatrix;
 
-use super::fit::NoiseTerms;
-
 /// Second-difference weights at 0, m, 2m.
 const W: [f64; 3] = [1.0, -2.0, 1.0];
 
@@ -196,10 +194,9 @@ impl Pair {
 ///
 /// ```
 /// use sinscal::noise::covariance::CurveCovariance;
-/// use sinscal::noise::fit::NoiseTerms;
 /// let cov = CurveCovariance::new(&[1, 10, 100], &[100_000], 0.01);
-/// let white = NoiseTerms { white: 1e-4, ..NoiseTerms::default() };
-/// let c = cov.for_model(&white);
+/// let white = [0.0, 1e-8, 0.0, 0.0]; // N = 1e-4 /√s
+/// let c = cov.for_model(white);
 /// assert!(c[(0, 1)] > 0.0 && c[(0, 1)] < c[(0, 0)].max(c[(1, 1)]));
 /// ```
 #[derive(Clone, Debug)]
@@ -246,14 +243,9 @@ impl CurveCovariance {
         CurveCovariance { basis, n }
     }
 
-    /// Cov(σ̂²(τ_i), σ̂²(τ_j)) (SI rate units to the fourth) under `terms`.
-    pub fn for_model(&self, terms: &NoiseTerms) -> DMatrix<f64> {
-        let p = [
-            terms.quantization.powi(2),
-            terms.white.powi(2),
-            terms.flicker.powi(2),
-            terms.random_walk.powi(2),
-        ];
+    /// Cov(σ̂²(τ_i), σ̂²(τ_j)) (SI rate units to the fourth) under the model
+    /// of powers `p` = (Q², N², B², K²) (`NoiseTerms::powers`).
+    pub fn for_model(&self, p: [f64; 4]) -> DMatrix<f64> {
         let n = self.n;
         let mut cov = DMatrix::zeros(n, n);
         for i in 0..n {
@@ -280,13 +272,14 @@ mod tests {
     use super::*;
     use crate::noise::edf::{edf_stretch, NoiseKind};
 
-    fn only(q: f64, n: f64, b: f64, k: f64) -> NoiseTerms {
-        NoiseTerms {
-            quantization: q,
-            white: n,
-            flicker: b,
-            random_walk: k,
-        }
+    fn only(q: f64, n: f64, b: f64, k: f64) -> [f64; 4] {
+        [q * q, n * n, b * b, k * k]
+    }
+
+    /// σ²(τ) of the model: 3Q²/τ² + N²/τ + (2 ln 2/π) B² + K² τ/3.
+    fn allan_variance(p: &[f64; 4], tau: f64) -> f64 {
+        let floor = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
+        3.0 * p[0] / (tau * tau) + p[1] / tau + floor * p[2] + p[3] * tau / 3.0
     }
 
     /// Each term alone: the diagonal's mean is the model's σ²(τ) (through
@@ -304,9 +297,9 @@ mod tests {
             (only(0.0, 0.0, 0.0, 1e-5), NoiseKind::RandomWalkRate, 0.25),
             (only(0.0, 0.0, 1e-5, 0.0), NoiseKind::FlickerRate, 0.25),
         ] {
-            let cov = curve.for_model(&terms);
+            let cov = curve.for_model(terms);
             for (i, &m) in sizes.iter().enumerate() {
-                let avar = terms.allan_variance(m as f64 * tau0);
+                let avar = allan_variance(&terms, m as f64 * tau0);
                 let nu = 2.0 * avar * avar / cov[(i, i)];
                 let table = edf_stretch(kind, records, m);
                 assert!(

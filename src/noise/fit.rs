@@ -464,7 +464,7 @@ impl Curve<'_> {
             return Some(Vec::new());
         }
         let h = self.hat(weights, cols)?;
-        let c = covariance.for_model(model);
+        let c = covariance.for_model(model.powers());
         let hc = &h * c * h.transpose();
         Some((0..cols.len()).map(|j| hc[(j, j)].max(0.0)).collect())
     }
