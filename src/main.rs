@@ -2,6 +2,7 @@
 
 mod cli_calibrate;
 mod cli_compensate;
+mod cli_import;
 mod cli_noise;
 mod cli_simulate_sensors;
 mod cli_simulate_thermal;
@@ -59,6 +60,9 @@ enum Command {
     /// (or a whole static run) and the noise terms read from it: ARW/VRW,
     /// bias instability, rate random walk.
     Noise(cli_noise::NoiseArgs),
+    /// Write a log of another format as a run of the contract.
+    #[command(subcommand)]
+    Import(cli_import::ImportCommand),
     /// Apply a calibration to a run: every record through the exact
     /// inversion of the error model, streaming, into a run of the contract.
     Compensate(cli_compensate::CompensateArgs),
@@ -544,6 +548,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             cli_compensate::run_compensate(&a, &read_metadata(&a.run, a.meta.as_deref())?)
         }
         Command::Export(a) => cli_compensate::run_export(&a),
+        Command::Import(c) => cli_import::run_import(&c),
         Command::Thermal(a) => cli_thermal::run_thermal(&a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Worker(a) => Ok(sinscal::server::worker(&a)?),
