@@ -36,6 +36,8 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
 use super::error::CalibError;
+use super::error_dynamics::WindowCache;
+pub use super::error_dynamics::{error_dynamics, process_noise, transition};
 pub use super::nav_errors::NAV;
 use super::nav_errors::{NavErrors, WindowModel};
 use super::noise_model::NoiseModel;
@@ -43,51 +45,6 @@ use super::sensitivity::Rows;
 use super::wander::wander_components;
 use crate::model::params::Group;
 use crate::model::N_PARAMS;
-use crate::nav::attitude::skew;
-
-/// The constant navigation-error dynamics at a fixed site.
-pub fn error_dynamics(omega_ie_n: &Vector3<f64>, f_n: &Vector3<f64>) -> Matrix6<f64> {
-    let mut f = Matrix6::zeros();
-    let w = skew(omega_ie_n);
-    f.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-w));
-    f.fixed_view_mut::<3, 3>(3, 0).copy_from(&(-skew(f_n)));
-    f.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-2.0 * w));
-    f
-}
-
-/// exp(F T) by its series; ‖F T‖ is dominated by the nilpotent φ→δv block,
-/// so a handful of terms reach rounding for windows of seconds.
-pub fn transition(f: &Matrix6<f64>, t: f64) -> Matrix6<f64> {
-    let ft = f * t;
-    let mut term = Matrix6::identity();
-    let mut sum = Matrix6::identity();
-    for k in 1..8 {
-        term = term * ft / k as f64;
-        sum += term;
-    }
-    sum
-}
-
-/// Q(T) = ∫₀ᵀ exp(F u) Q_c exp(F u)ᵀ du, by 16-interval Simpson (the
-/// integrand is a low-order polynomial in u to rounding).
-pub fn process_noise(f: &Matrix6<f64>, qc: &Matrix6<f64>, t: f64) -> Matrix6<f64> {
-    const N: usize = 16;
-    let h = t / N as f64;
-    let mut q = Matrix6::zeros();
-    for i in 0..=N {
-        let w = if i == 0 || i == N {
-            1.0
-        } else if i % 2 == 1 {
-            4.0
-        } else {
-            2.0
-        };
-        let a = transition(f, i as f64 * h);
-        q += a * qc * a.transpose() * w;
-    }
-    let q = q * (h / 3.0);
-    (q + q.transpose()) * 0.5
-}
 
 /// One zero-velocity update's innovation in two-stage form: the full
 /// innovation is `y_bar − m p̂` for a parameter estimate p̂ (scaled units).
@@ -102,51 +59,8 @@ pub struct Innovation {
     pub s: Matrix3<f64>,
 }
 
-/// The window matrices of one window length: exp(F T), and the response
-/// of Q(T) to each entry of the white noise's density in n (Q is linear in
-/// it; the density turns with the unit when the axes' noise differs).
-struct WindowCache {
-    t: f64,
-    phi: Matrix6<f64>,
-    /// Q(T) for a unit density on entry (i, j) and (j, i) of the gyro
-    /// block, then of the accelerometer block, i ≤ j.
-    basis: [Matrix6<f64>; 12],
-}
-
-/// The symmetric 3 × 3 entries, i ≤ j, in `WindowCache::basis` order.
-const SYM3: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
-
-impl WindowCache {
-    fn new(f: &Matrix6<f64>, t: f64) -> Self {
-        let basis = std::array::from_fn(|k| {
-            let (block, (i, j)) = (3 * (k / 6), SYM3[k % 6]);
-            let mut qc = Matrix6::zeros();
-            qc[(block + i, block + j)] = 1.0;
-            qc[(block + j, block + i)] = 1.0;
-            process_noise(f, &qc, t)
-        });
-        WindowCache {
-            t,
-            phi: transition(f, t),
-            basis,
-        }
-    }
-
-    /// Q(T) for the white densities `gyro_n`, `accel_n` (3 × 3, in n).
-    fn white_noise(&self, gyro_n: &Matrix3<f64>, accel_n: &Matrix3<f64>) -> Matrix6<f64> {
-        let mut q = Matrix6::zeros();
-        for (k, b) in self.basis.iter().enumerate() {
-            let (i, j) = SYM3[k % 6];
-            let d = if k < 6 { gyro_n } else { accel_n };
-            // An off-diagonal basis carries both (i, j) and (j, i).
-            let v = d[(i, j)];
-            if v != 0.0 {
-                q += b * v;
-            }
-        }
-        q
-    }
-}
+/// Window lengths whose matrices are kept.
+const WINDOW_CACHE: usize = 8;
 
 /// The filter. `n_p` parameter states follow the navigation states.
 pub struct SystematicFilter {
@@ -163,7 +77,16 @@ pub struct SystematicFilter {
     f: Matrix6<f64>,
     noise: NoiseModel,
     zupt_var: f64,
-    cache: Option<WindowCache>,
+    /// The window matrices of the lengths met so far, the latest first (a
+    /// run has a few: whole windows, and the odd ones at turns).
+    cache: Vec<WindowCache>,
+    /// Σ ln det S_k + ȳ_kᵀ S_k⁻¹ ȳ_k over the updates (the likelihood).
+    innovation_terms: f64,
+    keep_input: bool,
+    last_input: Option<DMatrix<f64>>,
+    /// The parameters are taken as known (their effect already removed
+    /// from the observations): only the bias-free part is filtered.
+    parameters_known: bool,
     // Window accumulators: Σ B_j, Σ τ_j B_j, Σ τ_j² B_j.
     s0: DMatrix<f64>,
     s1: DMatrix<f64>,
@@ -190,7 +113,7 @@ impl SystematicFilter {
         } else {
             Vec::new()
         };
-        let nav = NavErrors::new(p0_nav, wander);
+        let nav = NavErrors::new(p0_nav, wander, true);
         SystematicFilter {
             v: DMatrix::zeros(nav.len(), n_p),
             nav,
@@ -201,7 +124,11 @@ impl SystematicFilter {
             f,
             noise: *noise,
             zupt_var: zupt_sigma * zupt_sigma,
-            cache: None,
+            cache: Vec::new(),
+            innovation_terms: 0.0,
+            keep_input: false,
+            last_input: None,
+            parameters_known: false,
             s0: DMatrix::zeros(NAV, n_p),
             s1: DMatrix::zeros(NAV, n_p),
             s2: DMatrix::zeros(NAV, n_p),
@@ -235,24 +162,41 @@ impl SystematicFilter {
     /// `c_b_n` is the attitude at the window's end (the white noise's
     /// density in n when the axes differ).
     pub fn propagate(&mut self, t: f64, c_b_n: &Matrix3<f64>) {
-        if self.cache.as_ref().is_none_or(|c| c.t != t) {
-            self.cache = Some(WindowCache::new(&self.f, t));
+        let b = self.window_input(t);
+        self.propagate_input(t, c_b_n, &b);
+        if self.keep_input {
+            self.last_input = Some(b);
         }
-        let cache = self.cache.as_ref().expect("window cache set above");
+    }
+
+    /// The window's parameter input B (6 × n_p, scaled) from the records'
+    /// columns, clearing the accumulators:
+    /// B = S0 + F (T S0 − S1) + ½ F² (T² S0 − 2T S1 + S2).
+    fn window_input(&mut self, t: f64) -> DMatrix<f64> {
+        if self.n_p == 0 {
+            return DMatrix::zeros(NAV, 0);
+        }
+        let fm = DMatrix::from_column_slice(NAV, NAV, self.f.as_slice());
+        let first = &self.s0 * t - &self.s1;
+        let second = &self.s0 * (t * t) - &self.s1 * (2.0 * t) + &self.s2;
+        let b = &self.s0 + &fm * first + (&fm * &fm) * second * 0.5;
+        self.s0.fill(0.0);
+        self.s1.fill(0.0);
+        self.s2.fill(0.0);
+        b
+    }
+
+    /// Propagates over a window of length `t` whose parameter input B is
+    /// `b` (scaled; as [`SystematicFilter::propagate`] accumulates it, or
+    /// as a replay kept it).
+    pub fn propagate_input(&mut self, t: f64, c_b_n: &Matrix3<f64>, b: &DMatrix<f64>) {
+        let i = self.cached(t);
+        let cache = &self.cache[i];
         let q_white = cache.white_noise(
             &self.noise.gyro.white_density_n(c_b_n),
             &self.noise.accel.white_density_n(c_b_n),
         );
-        let b = if self.n_p > 0 {
-            let fm = DMatrix::from_column_slice(NAV, NAV, self.f.as_slice());
-            // B = S0 + F (T S0 − S1) + ½ F² (T² S0 − 2T S1 + S2).
-            let first = &self.s0 * t - &self.s1;
-            let second = &self.s0 * (t * t) - &self.s1 * (2.0 * t) + &self.s2;
-            &self.s0 + &fm * first + (&fm * &fm) * second * 0.5
-        } else {
-            DMatrix::zeros(NAV, 0)
-        };
-        let coupling = self.bias_coupling(&b);
+        let coupling = self.bias_coupling(b);
         let window = WindowModel {
             phi: &cache.phi,
             q_white: &q_white,
@@ -261,14 +205,71 @@ impl SystematicFilter {
         };
         let steps = self.nav.wander_steps(t);
         self.nav.propagate(&window, &steps);
-        if self.n_p > 0 {
+        if self.n_p > 0 && !self.parameters_known {
             self.v = self.nav.transition_left(&window, &steps, &self.v);
             let mut nav_rows = self.v.rows_mut(0, NAV);
-            nav_rows += &b;
-            self.s0.fill(0.0);
-            self.s1.fill(0.0);
-            self.s2.fill(0.0);
+            nav_rows += b;
         }
+    }
+
+    /// The same filter for observations whose parameter part is already
+    /// removed: only the navigation errors and the wander are filtered
+    /// (no sensitivity, no information, no run means), which is what a
+    /// noise model's likelihood needs and costs about half a pass.
+    pub fn with_parameters_known(mut self) -> Self {
+        let p0 = self.nav.p.view((0, 0), (NAV, NAV)).into_owned();
+        let p0 = Matrix6::from_fn(|r, c| p0[(r, c)]);
+        self.nav = NavErrors::new(&p0, self.nav.wander().to_vec(), false);
+        self.v = DMatrix::zeros(self.nav.len(), self.n_p);
+        self.parameters_known = true;
+        self
+    }
+
+    /// Keep each window's parameter input B for
+    /// [`SystematicFilter::take_window_input`] (a pass that records its
+    /// windows for a replay).
+    pub fn keep_window_inputs(&mut self) {
+        self.keep_input = true;
+    }
+
+    /// The last window's parameter input B, when kept.
+    pub fn take_window_input(&mut self) -> Option<DMatrix<f64>> {
+        self.last_input.take()
+    }
+
+    /// exp(F T) of the navigation errors over a window of `t` seconds.
+    pub fn navigation_transition(&mut self, t: f64) -> Matrix6<f64> {
+        let i = self.cached(t);
+        self.cache[i].phi
+    }
+
+    /// The index of the window matrices for length `t`, made if new. At
+    /// most [`WINDOW_CACHE`] lengths are kept; the least recent goes.
+    fn cached(&mut self, t: f64) -> usize {
+        if let Some(i) = self.cache.iter().position(|c| c.t == t) {
+            return i;
+        }
+        if self.cache.len() >= WINDOW_CACHE {
+            self.cache.remove(0);
+        }
+        self.cache.push(WindowCache::new(&self.f, t));
+        self.cache.len() - 1
+    }
+
+    /// The log-likelihood of the zero-velocity observations so far under
+    /// the filter's noise model, the parameters integrated out against
+    /// their prior (scaled: N(0, I)):
+    /// −½ [Σ ln det S_k + Σ ȳ_kᵀ S_k⁻¹ ȳ_k − hᵀ J⁻¹ h + ln det J], constant
+    /// dropped. The two-stage innovations ȳ_k − M_k p are independent
+    /// N(0, S_k) given p, which makes this the marginal likelihood.
+    pub fn log_likelihood(&self) -> Result<f64, CalibError> {
+        if self.parameters_known {
+            return Ok(-0.5 * self.innovation_terms);
+        }
+        let chol = self.information_cholesky()?;
+        let quad = self.h.dot(&chol.solve(&self.h));
+        let ln_det_j = 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        Ok(-0.5 * (self.innovation_terms - quad + ln_det_j))
     }
 
     /// How a constant body bias (gyro x, y, z, accelerometer x, y, z; SI)
@@ -314,6 +315,8 @@ impl SystematicFilter {
         let s_d = DMatrix::from_column_slice(3, 3, s.as_slice());
         let k = &p_xv * &s_inv; // n × 3
         let y_d = DVector::from_column_slice(y_bar.as_slice());
+        self.innovation_terms += 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>()
+            + y_bar.dot(&chol.solve(&y_bar));
         nav.x += &k * &y_d;
         // Joseph form for H = [0 I 0]: P − K P_v· − P_·v Kᵀ + K S Kᵀ.
         let k_pv = &k * p_xv.transpose();
@@ -323,7 +326,7 @@ impl SystematicFilter {
         // Innovation sensitivity M = H V; information from this update;
         // then the bias-free gain applied to the sensitivity.
         let m = self.v.rows(3, 3).into_owned(); // 3 × n_p
-        if self.n_p > 0 {
+        if self.n_p > 0 && !self.parameters_known {
             let mt_sinv = m.transpose() * &s_inv; // n_p × 3
             self.j += &mt_sinv * &m;
             self.h += &mt_sinv * y_d;
@@ -481,31 +484,6 @@ impl SystematicFilter {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn transition_matches_tilt_to_velocity_coupling() {
-        // With Earth rate off, a tilt φ_E makes δv_N grow as −g φ_E t… with
-        // f = [0,0,g]: δv̇ = φ × f = [φ_N g, −φ_E g, 0].
-        let f = error_dynamics(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8));
-        let a = transition(&f, 2.0);
-        assert!((a[(4, 0)] + 9.8 * 2.0).abs() < 1e-12);
-        assert!((a[(3, 1)] - 9.8 * 2.0).abs() < 1e-12);
-        assert_eq!(a[(0, 0)], 1.0);
-    }
-
-    #[test]
-    fn process_noise_has_the_random_walk_closed_form() {
-        let f = error_dynamics(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8));
-        let mut qc = Matrix6::zeros();
-        for i in 0..6 {
-            qc[(i, i)] = 1e-10;
-        }
-        let t = 1.5;
-        let q = process_noise(&f, &qc, t);
-        // Velocity: q t + g² q t³/3 (attitude noise integrated through g).
-        assert!((q[(3, 3)] - (1e-10 * t + 9.8 * 9.8 * 1e-10 * t.powi(3) / 3.0)).abs() < 1e-22);
-        assert!((q[(0, 0)] - 1e-10 * t).abs() < 1e-24);
-    }
 
     /// The filter on data drawn from its own linear model: every
     /// parameter's error over many trials must be as large as its σ says,

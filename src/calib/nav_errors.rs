@@ -48,12 +48,13 @@ pub struct NavErrors {
 impl NavErrors {
     /// Zero errors with navigation covariance `p0_nav`, and the wander
     /// components at their stationary (or, for a random walk, zero)
-    /// variance.
-    pub fn new(p0_nav: &Matrix6<f64>, wander: Vec<WanderComponent>) -> Self {
+    /// variance; with `run_means`, the integrals that turn the biases into
+    /// their run means.
+    pub fn new(p0_nav: &Matrix6<f64>, wander: Vec<WanderComponent>, run_means: bool) -> Self {
         let mut integral = [None; 6];
         let mut n = NAV + wander.len();
         for c in &wander {
-            if integral[c.axis].is_none() {
+            if run_means && integral[c.axis].is_none() {
                 integral[c.axis] = Some(n);
                 n += 1;
             }
@@ -78,6 +79,11 @@ impl NavErrors {
 
     pub fn is_empty(&self) -> bool {
         self.x.is_empty()
+    }
+
+    /// The wander components, in state order.
+    pub fn wander(&self) -> &[WanderComponent] {
+        &self.wander
     }
 
     /// The state index of bias axis `axis`'s integral ∫ w dt, if it wanders.
@@ -149,20 +155,34 @@ impl NavErrors {
         let mut nav = p.view((0, 0), (NAV, NAV)).into_owned();
         nav += DMatrix::from_column_slice(NAV, NAV, w.q_white.as_slice());
         p.view_mut((0, 0), (NAV, NAV)).copy_from(&nav);
-        let n = self.len();
         for (i, (c, s)) in self.wander.iter().zip(steps).enumerate() {
             if s.noise_variance <= 0.0 {
                 continue;
             }
-            let mut l = DVector::zeros(n);
+            // The noise's input vector is zero but on the navigation
+            // rows, its own state and its axis's integral: a rank-one
+            // update on those rows and columns only.
+            let mut idx = [0usize; NAV + 2];
+            let mut l = [0.0; NAV + 2];
             for r in 0..NAV {
+                idx[r] = r;
                 l[r] = 0.5 * w.coupling[(r, c.axis)];
             }
-            l[NAV + i] = 1.0;
-            if let Some(k) = self.integral[c.axis] {
-                l[k] = 0.5 * w.t;
+            idx[NAV] = NAV + i;
+            l[NAV] = 1.0;
+            let used = match self.integral[c.axis] {
+                Some(k) => {
+                    idx[NAV + 1] = k;
+                    l[NAV + 1] = 0.5 * w.t;
+                    NAV + 2
+                }
+                None => NAV + 1,
+            };
+            for a in 0..used {
+                for b in 0..used {
+                    p[(idx[a], idx[b])] += s.noise_variance * l[a] * l[b];
+                }
             }
-            p.ger(s.noise_variance, &l, &l, 1.0);
         }
     }
 
@@ -216,7 +236,7 @@ mod tests {
                 },
             },
         ];
-        let mut e = NavErrors::new(&(Matrix6::identity() * 0.1), wander);
+        let mut e = NavErrors::new(&(Matrix6::identity() * 0.1), wander, true);
         assert_eq!(e.len(), 6 + 3 + 2);
         let phi = Matrix6::from_fn(|r, c| {
             if r == c {

@@ -9,6 +9,7 @@
 //! or measured from the run.
 
 use super::options::NoiseDensity;
+use super::result::NoiseModelReport;
 use crate::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
 use nalgebra::{Matrix3, Vector3};
 
@@ -111,6 +112,36 @@ impl NoiseModel {
     /// Whether any bias wanders.
     pub fn wanders(&self) -> bool {
         self.gyro.wanders() || self.accel.wanders()
+    }
+
+    /// Whether any channel outputs pulses.
+    pub fn pulses(&self) -> bool {
+        self.gyro
+            .quantum
+            .iter()
+            .chain(&self.accel.quantum)
+            .any(|q| *q > 0.0)
+    }
+
+    /// White noise only: section 2's sensor, without any §2a term.
+    pub fn is_white(&self) -> bool {
+        !self.wanders() && !self.pulses()
+    }
+
+    /// The model in canonical units, per axis, for the result.
+    pub fn report(&self) -> NoiseModelReport {
+        let rt_h = HOUR.sqrt();
+        let per = |v: [f64; 3], unit: f64| v.map(|x| x / unit);
+        NoiseModelReport {
+            gyro_arw_deg_rt_h: per(self.gyro.white, DEG_PER_RT_H),
+            gyro_quantum_arcsec: per(self.gyro.quantum, ARCSEC),
+            gyro_bias_instability_deg_h: per(self.gyro.instability, DEG_PER_H),
+            gyro_rrw_deg_h_rt_h: per(self.gyro.random_walk, DEG_PER_H / rt_h),
+            accel_vrw_ug_rt_hz: per(self.accel.white, UG_PER_RT_HZ),
+            accel_quantum_mps: self.accel.quantum,
+            accel_bias_instability_ug: per(self.accel.instability, UG),
+            accel_rw_ug_rt_h: per(self.accel.random_walk, UG / rt_h),
+        }
     }
 
     /// Every white density raised to at least the floors given (a

@@ -78,8 +78,12 @@ pub struct EstimateOptions {
     /// information.
     pub zupt_in_motion: bool,
     pub detect: DetectOptions,
-    /// Noise densities; `None` measures them from the dwells' increments.
+    /// The noise model; `None` measures it from the run.
     pub noise: Option<NoiseDensity>,
+    /// With the noise measured: fit its terms to the run's zero-velocity
+    /// observations (`noise_fit`) and calibrate again under the fitted
+    /// model.
+    pub fit_noise: bool,
     /// Prior 1-σ of each parameter family as a multiple of the seed
     /// paper's magnitude.
     pub prior_scale: f64,
@@ -107,6 +111,7 @@ impl Default for EstimateOptions {
             zupt_in_motion: false,
             detect: DetectOptions::default(),
             noise: None,
+            fit_noise: true,
             prior_scale: 4.0,
             cross_check: true,
             history_points: 500,

@@ -81,6 +81,17 @@ impl PassContext<'_> {
         self.filter_with_noise(1.0, effect_scale, &white)
     }
 
+    /// The filter under another noise model, `zupt_sigma_mps` and effect
+    /// states scaled by `effect_scale`.
+    pub(crate) fn filter_for(
+        &self,
+        noise: &NoiseModel,
+        zupt_sigma_mps: f64,
+        effect_scale: &[f64],
+    ) -> SystematicFilter {
+        self.filter_with_noise(zupt_sigma_mps, effect_scale, noise)
+    }
+
     fn filter_with_noise(
         &self,
         zupt_sigma_mps: f64,
@@ -102,6 +113,18 @@ impl PassContext<'_> {
 }
 
 impl<'a> PassContext<'a> {
+    /// The context under another noise model.
+    pub(crate) fn with_noise(&self, noise: NoiseModel) -> PassContext<'a> {
+        let noise = noise.floored(MIN_ARW, MIN_VRW);
+        PassContext {
+            noise,
+            arw: noise.gyro.white_rms(),
+            vrw: noise.accel.white_rms(),
+            temperature: self.temperature.clone(),
+            ..*self
+        }
+    }
+
     /// The passes' context over a scanned run: the noise model from the
     /// options, else as the dwells measured it, its white densities
     /// floored.

@@ -22,6 +22,11 @@ const FLICKER_FLOOR: f64 = 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI;
 /// Shortest τ at which the floor must hold (SPEC §2a: from 10 s).
 const FLOOR_FROM_S: f64 = 10.0;
 
+/// The floor is held to this many run lengths: flicker has power at every
+/// low frequency, and what lies below the run's own shows within it as a
+/// slow drift that only components longer than the run can carry.
+const FLOOR_BEYOND_RUN: f64 = 10.0;
+
 /// Largest relative error of the bank's Allan deviation against the
 /// floor; the bank grows until it is met.
 const FLOOR_TOLERANCE: f64 = 0.05;
@@ -143,7 +148,7 @@ pub fn markov_allan_variance(tau: f64, tau_c: f64) -> f64 {
 /// longest, variances by least squares on the floor (a component the fit
 /// drives negative is dropped and the rest refitted).
 pub fn flicker_bank(run_s: f64) -> Vec<(f64, f64)> {
-    let hi = run_s.max(4.0 * FLOOR_FROM_S);
+    let hi = FLOOR_BEYOND_RUN * run_s.max(4.0 * FLOOR_FROM_S);
     let lo = FLOOR_FROM_S.min(hi / 4.0);
     let taus: Vec<f64> = (0..60)
         .map(|i| lo * (hi / lo).powf(i as f64 / 59.0))

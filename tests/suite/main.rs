@@ -26,6 +26,7 @@ mod calib_accuracy;
 mod calib_behaviour;
 mod calib_effect_states;
 mod calib_raw_units;
+mod calib_real_sensors;
 mod calib_tactical;
 mod cli;
 mod cli_diagnose;

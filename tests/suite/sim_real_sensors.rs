@@ -10,8 +10,6 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::{Matrix3, Vector3};
 use sha2::{Digest, Sha256};
 
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::RunInfo;
 use sinscal::io::data::DataFormat;
 use sinscal::io::meta::{read_json, Truth};
 use sinscal::io::run::write_simulated_run;
@@ -20,7 +18,7 @@ use sinscal::model::{Effects, ErrorParameters};
 use sinscal::nav::attitude::rotvec_to_dcm;
 use sinscal::nav::Site;
 use sinscal::noise::fit::FLICKER_FLOOR;
-use sinscal::noise::{analyse, NoiseOptions, NoiseReport, Span};
+use sinscal::noise::{analyse, NoiseOptions, NoiseReport, Span, Stretches};
 use sinscal::sim::vibration::FloorVibration;
 use sinscal::sim::wander::BiasWander;
 use sinscal::sim::{simulate, Gap, Noise, Scheme, SimConfig, Trajectory, Vibration};
@@ -234,18 +232,21 @@ fn curve_within_confidence(
 }
 
 fn analyse_static(cfg: &SimConfig) -> NoiseReport {
-    let info = RunInfo {
-        site: cfg.site,
-        sample_rate_hz: cfg.sample_rate_hz,
-    };
     let opts = NoiseOptions {
-        span: Span::WholeRun,
         max_tau_fraction: 0.5,
         ..NoiseOptions::default()
     };
+    let records: Vec<_> = simulate(cfg).unwrap().collect();
+    // The whole static run is one stretch.
+    let end = records.last().map_or(0.0, |r| r.t);
+    let stretches = Stretches {
+        span: Span::WholeRun,
+        windows: vec![(0.0, end)],
+    };
     let report = analyse(
-        &SimSource(cfg.clone()),
-        &info,
+        records.into_iter().map(Ok),
+        cfg.sample_rate_hz,
+        &stretches,
         &opts,
         &AtomicBool::new(false),
     )
