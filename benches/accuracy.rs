@@ -67,6 +67,7 @@ fn tactical_noise(seed: u64) -> Noise {
     Noise {
         gyro_arw_deg_rt_h: [0.001, 0.002, 0.003][(seed % 3) as usize],
         accel_vrw_ug_rt_hz: [10.0, 20.0, 30.0, 40.0, 50.0][(seed % 5) as usize],
+        ..Noise::default()
     }
 }
 
@@ -176,17 +177,17 @@ fn main() {
             scheme,
             params: truth,
             effects: Effects::none(),
-            noise,
+            noise: noise.clone(),
             initial_attitude_error_deg: start,
             seed,
             thermal: None,
             temperature: None,
         };
         let opts = EstimateOptions {
-            noise: known_noise.then_some(NoiseDensity {
-                gyro_arw_deg_rt_h: noise.gyro_arw_deg_rt_h,
-                accel_vrw_ug_rt_hz: noise.accel_vrw_ug_rt_hz,
-            }),
+            noise: known_noise.then_some(NoiseDensity::white(
+                noise.gyro_arw_deg_rt_h,
+                noise.accel_vrw_ug_rt_hz,
+            )),
             ..base.clone()
         };
         let res = calibrate_simulated(&cfg, &opts).unwrap();

@@ -81,10 +81,7 @@ fn main() {
             "tactical (ARW 0.001, VRW 10), table1 × 5, detect bias_drift=0.03deg/h/h",
             DesignRequest {
                 target: Some(Target::table1().tightened(0.2)),
-                noise: sinscal::calib::NoiseDensity {
-                    gyro_arw_deg_rt_h: 0.001,
-                    accel_vrw_ug_rt_hz: 10.0,
-                },
+                noise: sinscal::calib::NoiseDensity::white(0.001, 10.0),
                 detect: goals(&["bias_drift=0.03deg/h/h"]),
                 ..DesignRequest::default()
             },

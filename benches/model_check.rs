@@ -60,7 +60,7 @@ fn main() {
         let c = check(&config(
             as_run(&nine_plus_nine(dwell), seed),
             Effects::none(),
-            noise,
+            noise.clone(),
             rate,
             seed,
         ));
@@ -99,7 +99,7 @@ fn main() {
                 let c = check(&config(
                     as_run(&case.scheme, seed),
                     case.effects,
-                    noise,
+                    noise.clone(),
                     rate,
                     seed,
                 ));

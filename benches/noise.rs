@@ -44,13 +44,13 @@ fn main() {
             peak_rss_mb()
         );
         println!(
-            "  ARW x/y/z {:.6} {:.6} {:.6} deg/sqrt(h) (true 0.0003); VRW x/y/z {:.3} {:.3} {:.3} ug/sqrt(Hz) (true 5)",
-            r.gyro.x.arw_deg_rt_h,
-            r.gyro.y.arw_deg_rt_h,
-            r.gyro.z.arw_deg_rt_h,
-            r.accel.x.vrw_ug_rt_hz,
-            r.accel.y.vrw_ug_rt_hz,
-            r.accel.z.vrw_ug_rt_hz
+            "  ARW x/y/z {} {} {} deg/sqrt(h) (true 0.0003); VRW x/y/z {} {} {} ug/sqrt(Hz) (true 5)",
+            r.gyro.x.arw_deg_rt_h.cell(),
+            r.gyro.y.arw_deg_rt_h.cell(),
+            r.gyro.z.arw_deg_rt_h.cell(),
+            r.accel.x.vrw_ug_rt_hz.cell(),
+            r.accel.y.vrw_ug_rt_hz.cell(),
+            r.accel.z.vrw_ug_rt_hz.cell()
         );
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -1,6 +1,7 @@
 //! Simulation speed and memory: the 3.2 h `ten-position-9+9` run at
 //! 100 Hz with the paper's errors and noise, turned on a table and by hand
-//! (SPEC §4 flips), generated in memory and written to disk. Run:
+//! (SPEC §4 flips), as a real sensor (SPEC §2a), generated in memory and
+//! written to disk. Run:
 //! `cargo bench --bench simulate [-- WORD]`; with WORD, only the cases
 //! whose label holds it (e.g. `hand`), so their peak RSS is their own.
 
@@ -90,6 +91,21 @@ fn main() {
         "ten-position-9+9, all effects",
         &config("ten-position-9+9", all_effects),
     );
+    // SPEC §2a: wandering biases, pulses, floor vibration; then jittered
+    // stamps too (every step's transitions and phases evaluated afresh).
+    let real = SimConfig {
+        noise: Noise::real_navigation_grade(),
+        ..config("ten-position-9+9", Effects::none())
+    };
+    timed("ten-position-9+9, real sensor", &real);
+    let jittered = SimConfig {
+        noise: Noise {
+            time_jitter_pct: 5.0,
+            ..Noise::real_navigation_grade()
+        },
+        ..config("ten-position-9+9", Effects::none())
+    };
+    timed("ten-position-9+9, real sensor, jitter", &jittered);
 
     let dir = std::env::temp_dir().join(format!("sinscal-bench-sim-{}", std::process::id()));
     for (format, gzip, label) in [

@@ -181,6 +181,7 @@ async fn calibrated_run(
         noise: Noise {
             gyro_arw_deg_rt_h: 0.0003,
             accel_vrw_ug_rt_hz: 5.0,
+            ..Noise::default()
         },
         initial_attitude_error_deg: [0.1, -0.1, 2.0],
         seed: 1,

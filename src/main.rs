@@ -2,7 +2,9 @@
 
 mod cli_calibrate;
 mod cli_compensate;
+mod cli_import;
 mod cli_noise;
+mod cli_simulate_sensors;
 mod cli_simulate_thermal;
 mod cli_thermal;
 
@@ -58,6 +60,9 @@ enum Command {
     /// (or a whole static run) and the noise terms read from it: ARW/VRW,
     /// bias instability, rate random walk.
     Noise(cli_noise::NoiseArgs),
+    /// Write a log of another format as a run of the contract.
+    #[command(subcommand)]
+    Import(cli_import::ImportCommand),
     /// Apply a calibration to a run: every record through the exact
     /// inversion of the error model, streaming, into a run of the contract.
     Compensate(cli_compensate::CompensateArgs),
@@ -277,6 +282,8 @@ struct SimulateArgs {
     height: f64,
     #[command(flatten)]
     thermal: cli_simulate_thermal::ThermalArgs,
+    #[command(flatten)]
+    sensors: cli_simulate_sensors::SensorArgs,
 }
 
 fn scheme_ref(arg: &str) -> anyhow::Result<SchemeRef> {
@@ -296,6 +303,7 @@ fn simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
             .map_err(anyhow::Error::msg)?;
     }
     a.thermal.apply(&mut cfg)?;
+    a.sensors.apply(&mut cfg)?;
     Ok(cfg)
 }
 
@@ -335,10 +343,7 @@ fn nominal_simulate_config(a: &SimulateArgs) -> anyhow::Result<SimConfig> {
         scheme,
         params,
         effects,
-        noise: Noise {
-            gyro_arw_deg_rt_h: a.arw,
-            accel_vrw_ug_rt_hz: a.vrw,
-        },
+        noise: Noise::white(a.arw, a.vrw),
         initial_attitude_error_deg: attitude,
         seed: a.seed,
         thermal: None,
@@ -389,10 +394,7 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
         scheme,
         site: Site::new(a.latitude, 0.0, 0.0),
         sample_rate_hz: a.rate,
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: a.arw,
-            accel_vrw_ug_rt_hz: a.vrw,
-        },
+        noise: NoiseDensity::white(a.arw, a.vrw),
         initial_attitude_error_deg: a.attitude_error.unwrap_or([0.0; 3]),
     };
     let opts = EstimateOptions {
@@ -453,10 +455,7 @@ fn run_design(a: DesignArgs) -> anyhow::Result<()> {
     };
     let req = DesignRequest {
         target: Some(target),
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: a.arw,
-            accel_vrw_ug_rt_hz: a.vrw,
-        },
+        noise: NoiseDensity::white(a.arw, a.vrw),
         axes: a.axes,
         rate_dps: a.rate_dps,
         accel_dps2: a.accel_dps2,
@@ -549,6 +548,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             cli_compensate::run_compensate(&a, &read_metadata(&a.run, a.meta.as_deref())?)
         }
         Command::Export(a) => cli_compensate::run_export(&a),
+        Command::Import(c) => cli_import::run_import(&c),
         Command::Thermal(a) => cli_thermal::run_thermal(&a),
         Command::Serve(a) => Ok(sinscal::server::serve(&a)?),
         Command::Worker(a) => Ok(sinscal::server::worker(&a)?),

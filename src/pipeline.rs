@@ -8,7 +8,8 @@ use std::sync::atomic::AtomicBool;
 use crate::calib::result::RunTemperature;
 use crate::calib::temperature::TemperatureCurve;
 use crate::calib::{
-    self, CalibError, CalibrationResult, EstimateOptions, Progress, RecordSource, RunInfo,
+    self, CalibError, CalibrationResult, DetectOptions, EstimateOptions, Progress, RecordSource,
+    RunInfo, SegmentKind,
 };
 use crate::compensation::thermal::ThermalTerms;
 use crate::compensation::CompensationFile;
@@ -18,7 +19,7 @@ use crate::io::data::{
 use crate::io::meta::{write_json, MetaError, RunMetadata};
 use crate::io::run::metadata_sidecar;
 use crate::model::{Compensator, ErrorParameters, Group};
-use crate::noise::{NoiseError, NoiseOptions, NoiseReport};
+use crate::noise::{NoiseError, NoiseOptions, NoiseReport, Span, Stretches};
 use crate::record::Record;
 
 /// A run's data file, opened afresh for every pass of the estimator.
@@ -141,7 +142,9 @@ pub fn diagnose_file(
 
 /// The overlapping Allan deviation and noise terms of the run in `data`
 /// described by `meta`: the one function the CLI and the server call for a
-/// noise analysis. Reads the file twice (pre-scan, then the Allan sums).
+/// noise analysis. Reads the file twice: the estimator's pre-scan finds the
+/// dwells (or the run's extent, for a whole static run), then the noise
+/// analysis reads the records over them.
 pub fn noise_file(
     data: &Path,
     meta: &RunMetadata,
@@ -149,7 +152,59 @@ pub fn noise_file(
     cancel: &AtomicBool,
 ) -> Result<NoiseReport, NoiseError> {
     let (source, run) = FileSource::of_run(data, meta);
-    crate::noise::analyse(&source, &run, opts, cancel)
+    let (stretches, warnings) = still_stretches(&source, &run, opts.span, cancel)?;
+    let records = source.records().map_err(noise_error)?;
+    let mut report = crate::noise::analyse(
+        records.map(|r| r.map_err(noise_error)),
+        run.sample_rate_hz,
+        &stretches,
+        opts,
+        cancel,
+    )?;
+    report.warnings.splice(0..0, warnings);
+    Ok(report)
+}
+
+/// The stretches a noise analysis runs over, from the estimator's
+/// pre-scan: its dwells, or the whole run (with a warning when the
+/// pre-scan finds turns in a run declared static).
+fn still_stretches(
+    source: &FileSource,
+    run: &RunInfo,
+    span: Span,
+    cancel: &AtomicBool,
+) -> Result<(Stretches, Vec<String>), NoiseError> {
+    let scan = calib::prescan::prescan(source, run, &DetectOptions::default(), cancel)
+        .map_err(noise_error)?;
+    let mut warnings = Vec::new();
+    let windows = match span {
+        Span::Dwells => scan.dwells().map(|d| (d.t_start, d.t_end)).collect(),
+        Span::WholeRun => {
+            let motions = scan
+                .segments
+                .iter()
+                .filter(|s| s.kind == SegmentKind::Motion)
+                .count();
+            if motions > 0 {
+                warnings.push(format!(
+                    "the whole run was analysed but the pre-scan finds {motions} motion(s) in it: \
+                     turns raise the curve; analyse the dwells instead"
+                ));
+            }
+            vec![(scan.t_begin, scan.t_end)]
+        }
+    };
+    Ok((Stretches { span, windows }, warnings))
+}
+
+/// The estimator's errors as the noise analysis reports them.
+fn noise_error(e: CalibError) -> NoiseError {
+    match e {
+        CalibError::Source(m) => NoiseError::Source(m),
+        CalibError::Cancelled => NoiseError::Cancelled,
+        CalibError::Unusable(m) | CalibError::Numerical(m) => NoiseError::Unusable(m),
+        CalibError::Options(m) => NoiseError::Options(m),
+    }
 }
 
 /// Where and how [`compensate_file`] writes the compensated run.

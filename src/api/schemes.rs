@@ -97,14 +97,12 @@ impl DesignBody {
         let latitude = self.latitude_deg.unwrap_or(Site::REFERENCE.latitude_deg);
         Ok(DesignRequest {
             target: Some(target),
-            noise: NoiseDensity {
-                gyro_arw_deg_rt_h: self
-                    .arw_deg_rt_h
+            noise: NoiseDensity::white(
+                self.arw_deg_rt_h
                     .unwrap_or(defaults.noise.gyro_arw_deg_rt_h),
-                accel_vrw_ug_rt_hz: self
-                    .vrw_ug_rt_hz
+                self.vrw_ug_rt_hz
                     .unwrap_or(defaults.noise.accel_vrw_ug_rt_hz),
-            },
+            ),
             axes: self.axes.unwrap_or(defaults.axes),
             rate_dps: self.rate_dps.unwrap_or(defaults.rate_dps),
             accel_dps2: self.accel_dps2.unwrap_or(defaults.accel_dps2),

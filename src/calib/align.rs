@@ -7,6 +7,7 @@ use nalgebra::{Matrix3, Vector3};
 
 use super::error::CalibError;
 use super::filter::{error_dynamics, SystematicFilter};
+use super::noise_model::NoiseModel;
 use crate::nav::{Site, Strapdown};
 use crate::record::Record;
 
@@ -68,16 +69,16 @@ pub fn fine(
     for (i, s) in [1e-2, 1e-2, 0.1, 1e-3, 1e-3, 1e-3].iter().enumerate() {
         p0[(i, i)] = s * s;
     }
-    let mut kf = SystematicFilter::new(f, &p0, &[], arw, vrw, 1e-6);
+    let mut kf = SystematicFilter::new(f, &p0, &[], &NoiseModel::white(arw, vrw), 0.0, 1e-6);
     let mut nav = Strapdown::new(site, c_b_n, t0, nominal_dt);
     let (mut n, mut t_update) = (0, t0);
     for (r, dt) in records {
         nav.update_over(&r, dt);
         n += 1;
         if n % window == 0 {
-            kf.propagate(r.t - t_update);
+            kf.propagate(r.t - t_update, &nav.c_b_n());
             t_update = r.t;
-            kf.update_zero_velocity(&nav.v_n)?;
+            kf.update_zero_velocity(&nav.v_n, &nav.c_b_n())?;
             let (phi, dv) = kf.take_navigation_errors();
             nav.correct(&phi, &dv, &Vector3::zeros());
         }

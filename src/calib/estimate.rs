@@ -10,13 +10,17 @@ use std::sync::atomic::AtomicBool;
 
 use super::effect_model::Effect;
 use super::error::CalibError;
-use super::kf_pass::{kf_pass, Pass};
-use super::lsq::lsq_pass;
+use super::kf_pass::{effect_terms, kf_pass};
+use super::noise_fit::{fit_noise, FreeTerm};
+use super::noise_measure::measure_noise;
+use super::noise_model::NoiseModel;
 use super::options::EstimateOptions;
+use super::passes::{lsq_as_pass, run_passes, Estimate};
 use super::prescan::{first_dwell, scan_run};
 use super::priors::prior_sigma;
 use super::result::{
-    AlignmentReport, CalibrationResult, Convergence, CrossCheck, CrossCheckEntry, ParameterEstimate,
+    AlignmentReport, CalibrationNoise, CalibrationResult, CrossCheck, CrossCheckEntry, NoiseSource,
+    ParameterEstimate,
 };
 use super::run::{EstimatorKind, Progress, RecordSource, RunInfo};
 use super::temperature::{TemperatureCurve, THERMAL_SPAN_C};
@@ -55,10 +59,37 @@ pub fn estimate(
     let temperature = source.temperature()?;
     let opts = &with_thermal_states(opts, temperature.as_ref())?;
     let scan = scan_run(source, run, opts, cancel)?;
-    estimate_scanned(
-        &PassContext::new(source, run, opts, &scan, cancel).with_temperature(temperature),
-        progress,
-    )
+    let ctx = PassContext::new(source, run, opts, &scan, cancel).with_temperature(temperature);
+    check_scanned(&ctx)?;
+    match opts.noise {
+        Some(_) => estimate_from(&ctx, None, progress),
+        None => {
+            let (measured, head) = measure_beside_first_pass(&ctx, progress)?;
+            estimate_from(&ctx.with_noise(measured), Some(head), progress)
+        }
+    }
+}
+
+/// The run's own noise model (`noise_measure`: one more streaming read,
+/// the Allan curves over the dwells and the pulse quanta) measured on a
+/// second thread while the first pass runs under the pre-scan's white
+/// densities: on a white run the two models are the same and the read
+/// costs no time; on a real sensor's run the passes that follow take the
+/// measured model from where the first left them.
+fn measure_beside_first_pass(
+    ctx: &PassContext,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(NoiseModel, Estimate), CalibError> {
+    let (source, run, scan, cancel) = (ctx.source, ctx.run, ctx.scan, ctx.cancel);
+    let share = first_pass_share(ctx.opts);
+    std::thread::scope(|s| {
+        let measuring = s.spawn(move || measure_noise(source, run, scan, cancel));
+        let head = run_passes(ctx, None, 1, 1, false, (0.05, share), progress);
+        let measured = measuring
+            .join()
+            .map_err(|_| CalibError::Numerical("the noise measurement panicked".into()))?;
+        Ok((measured?, head?))
+    })
 }
 
 /// The options a run is calibrated with: thermal states need the run's
@@ -88,11 +119,18 @@ fn with_thermal_states(
 }
 
 /// Calibrates a run already scanned (the discrepancy workflow keeps the
-/// scan for its own passes).
+/// scan for its own passes) under the context's noise model.
 pub(crate) fn estimate_scanned(
     ctx: &PassContext,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<CalibrationResult, CalibError> {
+    check_scanned(ctx)?;
+    estimate_from(ctx, None, progress)
+}
+
+/// What a scanned run must hold before any pass: two dwells at least, and
+/// effect states only with the filter.
+fn check_scanned(ctx: &PassContext) -> Result<(), CalibError> {
     let (opts, scan) = (ctx.opts, ctx.scan);
     first_dwell(scan)?;
     // One attitude observes the gravity and Earth-rate projections on one
@@ -110,64 +148,58 @@ pub(crate) fn estimate_scanned(
             opts.model
         )));
     }
-    let mut params = ErrorParameters::zero();
-    let effect_states = opts.model.states();
-    // The effects' estimates (SI, state order), composed like the base
-    // parameters: each pass removes them from the records and estimates
-    // what is left.
-    let mut effects = vec![0.0; effect_states.len()];
-    let max_passes = opts.max_passes.max(1);
-    let mut last: Option<Pass> = None;
-    let mut passes = 0;
-    // Largest correction of the last pass against its σ: the estimate is
-    // the linearisation point's only once this is small.
-    let mut last_worst = f64::INFINITY;
-    // The cross-check is one more pass; reserve its share of the progress.
-    let share = if opts.cross_check { 0.8 } else { 0.9 };
-    for pass in 1..=max_passes {
-        passes = pass;
-        let base = 0.05 + share * (pass - 1) as f64 / max_passes as f64;
-        let span = share / max_passes as f64;
-        let stage = format!(
-            "{} pass {pass} of at most {max_passes}",
-            opts.estimator.name()
-        );
-        let mut report = |f: f64| {
-            progress(Progress {
-                fraction: base + span * f,
-                stage: stage.clone(),
-            })
-        };
-        let p = match opts.estimator {
-            EstimatorKind::Kf => kf_pass(ctx, &params, &effects, &mut report)?,
-            EstimatorKind::Lsq => lsq_as_pass(ctx, &params, &effects, &mut report)?,
-        };
-        let mut delta = ErrorParameters::zero();
-        delta.si.copy_from_slice(&p.delta[..N_PARAMS]);
-        params = params.compose(&delta);
-        for (e, d) in effects.iter_mut().zip(&p.delta[N_PARAMS..]) {
-            *e += d;
-        }
-        let worst = p
-            .delta
-            .iter()
-            .zip(p.sigma.iter())
-            .map(|(d, s)| d.abs() / s)
-            .fold(0.0, f64::max);
-        last = Some(p);
-        last_worst = worst;
-        if pass >= 2 && worst < opts.converged_sigma {
-            break;
-        }
+    Ok(())
+}
+
+/// The progress one pass takes of the passes' share.
+fn first_pass_share(opts: &EstimateOptions) -> f64 {
+    passes_share(opts) / f64::from(opts.max_passes.max(1))
+}
+
+/// The progress the passes take: the cross-check is one more pass, and
+/// keeps its own share.
+fn passes_share(opts: &EstimateOptions) -> f64 {
+    if opts.cross_check {
+        0.8
+    } else {
+        0.9
     }
-    let mut last = last.ok_or_else(|| CalibError::Numerical("no pass ran".into()))?;
-    let unsettled = (max_passes >= 2 && last_worst >= opts.converged_sigma).then(|| {
-        format!(
-            "the estimate had not settled after {passes} passes: the last one still moved a \
-             parameter by {last_worst:.2}σ (more than {}σ)",
-            opts.converged_sigma
-        )
-    });
+}
+
+/// The passes from `head` (a first pass already run, or none), the noise
+/// fit when the run asks for one, the cross-check, and the result.
+fn estimate_from(
+    ctx: &PassContext,
+    head: Option<Estimate>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<CalibrationResult, CalibError> {
+    let (opts, scan) = (ctx.opts, ctx.scan);
+    let effect_states = opts.model.states();
+    let share = passes_share(opts);
+    // At least two passes: the first linearises at zero, the second at
+    // the first's answer.
+    let (budget, min_passes, lo) = match &head {
+        Some(h) => (
+            opts.max_passes.saturating_sub(h.passes).max(1),
+            2u32.saturating_sub(h.passes).max(1),
+            0.05 + first_pass_share(opts),
+        ),
+        None => (opts.max_passes, 2, 0.05),
+    };
+    let span = share - (lo - 0.05);
+    let est = run_passes(ctx, head, budget, min_passes, false, (lo, span), progress)?;
+    let source = noise_source(ctx);
+    let fitted_ctx;
+    let (ctx, est, fit_evaluations) = if source == NoiseSource::Fitted {
+        let range = (0.05 + 0.5 * share, 0.5 * share);
+        let (c, e, n) = refit_noise(ctx, est, range, progress)?;
+        fitted_ctx = c;
+        (&fitted_ctx, e, Some(n))
+    } else {
+        (ctx, est, None)
+    };
+    let unsettled = est.unsettled(ctx);
+    let (params, effects, passes, mut last) = (est.params, est.effects, est.passes, est.last);
 
     let cross_check = if opts.cross_check {
         let stage = "cross-check".to_string();
@@ -326,6 +358,11 @@ pub(crate) fn estimate_scanned(
         },
         noise_arw_deg_rt_h: ctx.arw / DEG_PER_RT_H,
         noise_vrw_ug_rt_hz: ctx.vrw / UG_PER_RT_HZ,
+        noise_model: Some(CalibrationNoise {
+            source,
+            model: ctx.noise.report(),
+            fit_evaluations,
+        }),
         segments: scan.segments.clone(),
         gaps: scan.gaps.iter().map(|g| g.report()).collect(),
         dwell_residuals: last.dwell_residuals,
@@ -339,23 +376,58 @@ pub(crate) fn estimate_scanned(
     })
 }
 
-/// A least-squares solution in the form of a filter pass.
-fn lsq_as_pass(
-    ctx: &PassContext,
-    params: &ErrorParameters,
-    effects: &[f64],
-    progress: &mut dyn FnMut(f64),
-) -> Result<Pass, CalibError> {
-    let sol = lsq_pass(ctx, params, effects, progress)?;
-    Ok(Pass {
-        delta: sol.delta,
-        sigma: sol.sigma,
-        c_b_n0: sol.c_b_n0,
-        history: Convergence::default(),
-        dwell_residuals: Vec::new(),
-        model_check: None,
-        covariance: None,
-    })
+/// Whether the noise model the passes ran under stands or is fitted to
+/// the run. A given model stands. A measured one is fitted when it holds
+/// any §2a term (pulses or a wandering bias): the dwells' curves only start
+/// those. A white model stands even when its check fails: a misfit the
+/// white noise does not explain is what the check is for, and a fit would
+/// read a missing effect as noise.
+fn noise_source(ctx: &PassContext) -> NoiseSource {
+    let opts = ctx.opts;
+    if opts.noise.is_some() {
+        NoiseSource::Given
+    } else if opts.fit_noise && opts.estimator == EstimatorKind::Kf && !ctx.noise.is_white() {
+        NoiseSource::Fitted
+    } else {
+        NoiseSource::Measured
+    }
+}
+
+/// Fits the noise model to the innovations of one more pass from where
+/// the passes stand (`noise_fit`), then runs the passes again under it:
+/// the context with the fitted model, the new estimate and the
+/// likelihood evaluations spent.
+fn refit_noise<'a>(
+    ctx: &PassContext<'a>,
+    est: Estimate,
+    (lo, span): (f64, f64),
+    progress: &mut dyn FnMut(Progress),
+) -> Result<(PassContext<'a>, Estimate, usize), CalibError> {
+    let mut est = run_passes(ctx, Some(est), 1, 1, true, (lo, 0.2 * span), progress)?;
+    progress(Progress {
+        fraction: lo + 0.2 * span,
+        stage: "fitting the noise model to the run".into(),
+    });
+    let trace = est
+        .last
+        .trace
+        .take()
+        .ok_or_else(|| CalibError::Numerical("the pass kept no trace".into()))?;
+    let scale = effect_terms(&ctx.opts.model, &est.effects).scale;
+    let fit = fit_noise(ctx, &trace, &scale, &ctx.noise, &FreeTerm::SETTLED)?;
+    drop(trace);
+    let fitted = ctx.with_noise(fit.model);
+    let range = (lo + 0.4 * span, 0.6 * span);
+    let est = run_passes(
+        &fitted,
+        Some(est),
+        ctx.opts.max_passes,
+        1,
+        false,
+        range,
+        progress,
+    )?;
+    Ok((fitted, est, fit.evaluations))
 }
 
 /// Compares the two estimators parameter by parameter.

@@ -22,65 +22,29 @@
 //!   record from the zeroth, first and second time moments of the
 //!   per-record columns B_j (the F³ term is below 1e-7 of the rest for 1 s
 //!   windows);
-//! - ARW and VRW are isotropic, so their process noise does not depend on
-//!   the attitude.
+//! - the white noise's process noise is linear in its density in n, so
+//!   Q(T) is kept per window length as its response to each entry of that
+//!   density, and a unit whose axes differ only costs a 3 × 3 rotation;
+//! - a wandering bias (SPEC §2a) acts through the same columns as the
+//!   constant bias, so the window's bias columns couple the wander states
+//!   (`nav_errors`, `wander`) into the navigation errors.
 //!
 //! Parameter states are kept in units of their prior σ so that J starts as
 //! the identity. The navigation update is the Joseph form, expanded for a
 //! measurement that selects the velocity rows.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
 use super::error::CalibError;
+use super::error_dynamics::WindowCache;
+pub use super::error_dynamics::{error_dynamics, process_noise, transition};
+pub use super::nav_errors::NAV;
+use super::nav_errors::{NavErrors, WindowModel};
+use super::noise_model::NoiseModel;
 use super::sensitivity::Rows;
-use crate::nav::attitude::skew;
-
-/// Number of navigation-error states: φ (0..3), δv (3..6).
-pub const NAV: usize = 6;
-
-/// The constant navigation-error dynamics at a fixed site.
-pub fn error_dynamics(omega_ie_n: &Vector3<f64>, f_n: &Vector3<f64>) -> Matrix6<f64> {
-    let mut f = Matrix6::zeros();
-    let w = skew(omega_ie_n);
-    f.fixed_view_mut::<3, 3>(0, 0).copy_from(&(-w));
-    f.fixed_view_mut::<3, 3>(3, 0).copy_from(&(-skew(f_n)));
-    f.fixed_view_mut::<3, 3>(3, 3).copy_from(&(-2.0 * w));
-    f
-}
-
-/// exp(F T) by its series; ‖F T‖ is dominated by the nilpotent φ→δv block,
-/// so a handful of terms reach rounding for windows of seconds.
-pub fn transition(f: &Matrix6<f64>, t: f64) -> Matrix6<f64> {
-    let ft = f * t;
-    let mut term = Matrix6::identity();
-    let mut sum = Matrix6::identity();
-    for k in 1..8 {
-        term = term * ft / k as f64;
-        sum += term;
-    }
-    sum
-}
-
-/// Q(T) = ∫₀ᵀ exp(F u) Q_c exp(F u)ᵀ du, by 16-interval Simpson (the
-/// integrand is a low-order polynomial in u to rounding).
-pub fn process_noise(f: &Matrix6<f64>, qc: &Matrix6<f64>, t: f64) -> Matrix6<f64> {
-    const N: usize = 16;
-    let h = t / N as f64;
-    let mut q = Matrix6::zeros();
-    for i in 0..=N {
-        let w = if i == 0 || i == N {
-            1.0
-        } else if i % 2 == 1 {
-            4.0
-        } else {
-            2.0
-        };
-        let a = transition(f, i as f64 * h);
-        q += a * qc * a.transpose() * w;
-    }
-    let q = q * (h / 3.0);
-    (q + q.transpose()) * 0.5
-}
+use super::wander::wander_components;
+use crate::model::params::Group;
+use crate::model::N_PARAMS;
 
 /// One zero-velocity update's innovation in two-stage form: the full
 /// innovation is `y_bar − m p̂` for a parameter estimate p̂ (scaled units).
@@ -95,17 +59,14 @@ pub struct Innovation {
     pub s: Matrix3<f64>,
 }
 
-/// The navigation part: the bias-free estimate and its covariance.
-#[derive(Clone, Debug)]
-pub struct NavState {
-    pub x: Vector6<f64>,
-    pub p: Matrix6<f64>,
-}
+/// Window lengths whose matrices are kept.
+const WINDOW_CACHE: usize = 8;
 
 /// The filter. `n_p` parameter states follow the navigation states.
 pub struct SystematicFilter {
-    pub nav: NavState,
-    /// Sensitivity of the navigation errors to the (scaled) parameters.
+    /// The bias-free states: navigation errors and any bias wander.
+    pub nav: NavErrors,
+    /// Sensitivity of the bias-free states to the (scaled) parameters.
     v: DMatrix<f64>,
     /// Parameter information and information vector (scaled units).
     j: DMatrix<f64>,
@@ -114,9 +75,18 @@ pub struct SystematicFilter {
     /// Prior σ of each parameter, SI: state i is δp_i / scale_i.
     scale: Vec<f64>,
     f: Matrix6<f64>,
-    qc: Matrix6<f64>,
+    noise: NoiseModel,
     zupt_var: f64,
-    cache: Option<(f64, Matrix6<f64>, Matrix6<f64>)>,
+    /// The window matrices of the lengths met so far, the latest first (a
+    /// run has a few: whole windows, and the odd ones at turns).
+    cache: Vec<WindowCache>,
+    /// Σ ln det S_k + ȳ_kᵀ S_k⁻¹ ȳ_k over the updates (the likelihood).
+    innovation_terms: f64,
+    keep_input: bool,
+    last_input: Option<DMatrix<f64>>,
+    /// The parameters are taken as known (their effect already removed
+    /// from the observations): only the bias-free part is filtered.
+    parameters_known: bool,
     // Window accumulators: Σ B_j, Σ τ_j B_j, Σ τ_j² B_j.
     s0: DMatrix<f64>,
     s1: DMatrix<f64>,
@@ -125,37 +95,40 @@ pub struct SystematicFilter {
 
 impl SystematicFilter {
     /// `p0_nav` is the initial navigation covariance; `prior_sigma` the
-    /// prior 1-σ of each parameter state (SI); `arw`, `vrw` the noise
-    /// densities (rad/√s, m/s/√s); `zupt_sigma` the zero-velocity
-    /// measurement σ (m/s).
+    /// prior 1-σ of each parameter state (SI; with wandering biases the
+    /// 24 base parameters must lead); `noise` the sensor noise, whose
+    /// wander over a run of `run_s` seconds becomes states; `zupt_sigma`
+    /// the zero-velocity measurement σ (m/s).
     pub fn new(
         f: Matrix6<f64>,
         p0_nav: &Matrix6<f64>,
         prior_sigma: &[f64],
-        arw: f64,
-        vrw: f64,
+        noise: &NoiseModel,
+        run_s: f64,
         zupt_sigma: f64,
     ) -> Self {
         let n_p = prior_sigma.len();
-        let mut qc = Matrix6::zeros();
-        for i in 0..3 {
-            qc[(i, i)] = arw * arw;
-            qc[(3 + i, 3 + i)] = vrw * vrw;
-        }
+        let wander = if noise.wanders() && n_p >= N_PARAMS {
+            wander_components(noise, run_s)
+        } else {
+            Vec::new()
+        };
+        let nav = NavErrors::new(p0_nav, wander, true);
         SystematicFilter {
-            nav: NavState {
-                x: Vector6::zeros(),
-                p: *p0_nav,
-            },
-            v: DMatrix::zeros(NAV, n_p),
+            v: DMatrix::zeros(nav.len(), n_p),
+            nav,
             j: DMatrix::identity(n_p, n_p),
             h: DVector::zeros(n_p),
             n_p,
             scale: prior_sigma.to_vec(),
             f,
-            qc,
+            noise: *noise,
             zupt_var: zupt_sigma * zupt_sigma,
-            cache: None,
+            cache: Vec::new(),
+            innovation_terms: 0.0,
+            keep_input: false,
+            last_input: None,
+            parameters_known: false,
             s0: DMatrix::zeros(NAV, n_p),
             s1: DMatrix::zeros(NAV, n_p),
             s2: DMatrix::zeros(NAV, n_p),
@@ -191,85 +164,194 @@ impl SystematicFilter {
         }
     }
 
-    fn window_matrices(&mut self, t: f64) -> (Matrix6<f64>, Matrix6<f64>) {
-        match self.cache {
-            Some((ct, a, q)) if ct == t => (a, q),
-            _ => {
-                let a = transition(&self.f, t);
-                let q = process_noise(&self.f, &self.qc, t);
-                self.cache = Some((t, a, q));
-                (a, q)
+    /// Propagates over a window of length `t` whose records were added
+    /// with [`SystematicFilter::add_column`], and clears the accumulators;
+    /// `c_b_n` is the attitude at the window's end (the white noise's
+    /// density in n when the axes differ).
+    pub fn propagate(&mut self, t: f64, c_b_n: &Matrix3<f64>) {
+        let b = self.window_input(t);
+        self.propagate_input(t, c_b_n, &b);
+        if self.keep_input {
+            self.last_input = Some(b);
+        }
+    }
+
+    /// The window's parameter input B (6 × n_p, scaled) from the records'
+    /// columns, clearing the accumulators:
+    /// B = S0 + F (T S0 − S1) + ½ F² (T² S0 − 2T S1 + S2).
+    fn window_input(&mut self, t: f64) -> DMatrix<f64> {
+        if self.n_p == 0 {
+            return DMatrix::zeros(NAV, 0);
+        }
+        let fm = DMatrix::from_column_slice(NAV, NAV, self.f.as_slice());
+        let first = &self.s0 * t - &self.s1;
+        let second = &self.s0 * (t * t) - &self.s1 * (2.0 * t) + &self.s2;
+        let b = &self.s0 + &fm * first + (&fm * &fm) * second * 0.5;
+        self.s0.fill(0.0);
+        self.s1.fill(0.0);
+        self.s2.fill(0.0);
+        b
+    }
+
+    /// Propagates over a window of length `t` whose parameter input B is
+    /// `b` (scaled; as [`SystematicFilter::propagate`] accumulates it, or
+    /// as a replay kept it).
+    pub fn propagate_input(&mut self, t: f64, c_b_n: &Matrix3<f64>, b: &DMatrix<f64>) {
+        let i = self.cached(t);
+        let (phi, q_white) = self.cache[i].over(
+            &self.f,
+            t,
+            &self.noise.gyro.white_density_n(c_b_n),
+            &self.noise.accel.white_density_n(c_b_n),
+        );
+        let coupling = self.bias_coupling(b);
+        let window = WindowModel {
+            phi: &phi,
+            q_white: &q_white,
+            coupling: &coupling,
+            t,
+        };
+        let steps = self.nav.wander_steps(t);
+        self.nav.propagate(&window, &steps);
+        if self.n_p > 0 && !self.parameters_known {
+            self.v = self.nav.transition_left(&window, &steps, &self.v);
+            let mut nav_rows = self.v.rows_mut(0, NAV);
+            nav_rows += b;
+        }
+    }
+
+    /// The same filter for observations whose parameter part is already
+    /// removed: only the navigation errors and the wander are filtered
+    /// (no sensitivity, no information, no run means), which is what a
+    /// noise model's likelihood needs and costs about half a pass.
+    pub fn with_parameters_known(mut self) -> Self {
+        let p0 = self.nav.p.view((0, 0), (NAV, NAV)).into_owned();
+        let p0 = Matrix6::from_fn(|r, c| p0[(r, c)]);
+        self.nav = NavErrors::new(&p0, self.nav.wander().to_vec(), false);
+        self.v = DMatrix::zeros(self.nav.len(), self.n_p);
+        self.parameters_known = true;
+        self
+    }
+
+    /// Keep each window's parameter input B for
+    /// [`SystematicFilter::take_window_input`] (a pass that records its
+    /// windows for a replay).
+    pub fn keep_window_inputs(&mut self) {
+        self.keep_input = true;
+    }
+
+    /// The last window's parameter input B, when kept.
+    pub fn take_window_input(&mut self) -> Option<DMatrix<f64>> {
+        self.last_input.take()
+    }
+
+    /// exp(F T) of the navigation errors over a window of `t` seconds.
+    pub fn navigation_transition(&mut self, t: f64) -> Matrix6<f64> {
+        let i = self.cached(t);
+        self.cache[i].phi_over(&self.f, t)
+    }
+
+    /// The index of the window matrices for length `t`, or of the nearest
+    /// kept length that reaches it (`WindowCache::over`: windows over
+    /// jittered stamps), made if none. At most [`WINDOW_CACHE`] lengths
+    /// are kept; the least recent goes.
+    fn cached(&mut self, t: f64) -> usize {
+        let nearest = (self.cache.iter().enumerate())
+            .filter(|(_, c)| c.reaches(t))
+            .min_by(|a, b| (a.1.t - t).abs().total_cmp(&(b.1.t - t).abs()));
+        if let Some((i, _)) = nearest {
+            return i;
+        }
+        if self.cache.len() >= WINDOW_CACHE {
+            self.cache.remove(0);
+        }
+        self.cache.push(WindowCache::new(&self.f, t));
+        self.cache.len() - 1
+    }
+
+    /// The log-likelihood of the zero-velocity observations so far under
+    /// the filter's noise model, the parameters integrated out against
+    /// their prior (scaled: N(0, I)):
+    /// −½ [Σ ln det S_k + Σ ȳ_kᵀ S_k⁻¹ ȳ_k − hᵀ J⁻¹ h + ln det J], constant
+    /// dropped. The two-stage innovations ȳ_k − M_k p are independent
+    /// N(0, S_k) given p, which makes this the marginal likelihood.
+    pub fn log_likelihood(&self) -> Result<f64, CalibError> {
+        if self.parameters_known {
+            return Ok(-0.5 * self.innovation_terms);
+        }
+        let chol = self.information_cholesky()?;
+        let quad = self.h.dot(&chol.solve(&self.h));
+        let ln_det_j = 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        Ok(-0.5 * (self.innovation_terms - quad + ln_det_j))
+    }
+
+    /// How a constant body bias (gyro x, y, z, accelerometer x, y, z; SI)
+    /// moved the navigation errors over the window: the bias parameters'
+    /// columns of the window's B, unscaled. The wander states act through
+    /// it. Zero when the filter carries no base parameters.
+    fn bias_coupling(&self, b: &DMatrix<f64>) -> Matrix6<f64> {
+        let mut g = Matrix6::zeros();
+        if self.n_p < N_PARAMS || self.nav.len() == NAV {
+            return g;
+        }
+        let first = [Group::GyroBias.first(), Group::AccelBias.first()];
+        for axis in 0..6 {
+            let col = first[axis / 3] + axis % 3;
+            for r in 0..NAV {
+                g[(r, axis)] = b[(r, col)] / self.scale[col];
             }
         }
+        g
     }
 
-    /// Propagates over a window of length `t` whose records were added
-    /// with [`SystematicFilter::add_column`], and clears the accumulators.
-    pub fn propagate(&mut self, t: f64) {
-        let (a, q) = self.window_matrices(t);
-        self.nav.x = a * self.nav.x;
-        let p = a * self.nav.p * a.transpose() + q;
-        self.nav.p = (p + p.transpose()) * 0.5;
-        if self.n_p > 0 {
-            let fm = DMatrix::from_column_slice(NAV, NAV, self.f.as_slice());
-            let am = DMatrix::from_column_slice(NAV, NAV, a.as_slice());
-            // B = S0 + F (T S0 − S1) + ½ F² (T² S0 − 2T S1 + S2).
-            let first = &self.s0 * t - &self.s1;
-            let second = &self.s0 * (t * t) - &self.s1 * (2.0 * t) + &self.s2;
-            let b = &self.s0 + &fm * first + (&fm * &fm) * second * 0.5;
-            self.v = am * &self.v + b;
-            self.s0.fill(0.0);
-            self.s1.fill(0.0);
-            self.s2.fill(0.0);
-        }
-    }
-
-    /// Zero-velocity update with the navigated velocity `v_n` (m/s).
-    pub fn update_zero_velocity(&mut self, v_n: &Vector3<f64>) -> Result<Innovation, CalibError> {
+    /// Zero-velocity update with the navigated velocity `v_n` (m/s) at
+    /// attitude `c_b_n` (the accelerometers' quanta, a bounded error of
+    /// the velocity, add to the observation's noise along their axes).
+    pub fn update_zero_velocity(
+        &mut self,
+        v_n: &Vector3<f64>,
+        c_b_n: &Matrix3<f64>,
+    ) -> Result<Innovation, CalibError> {
+        let r =
+            Matrix3::identity() * self.zupt_var + self.noise.accel.quantization_covariance_n(c_b_n);
         let nav = &mut self.nav;
         // Bias-free innovation and its covariance.
-        let y_bar = v_n - nav.x.fixed_rows::<3>(3);
-        let p_xv = nav.p.fixed_columns::<3>(3).into_owned(); // 6 × 3
-        let s = p_xv.fixed_rows::<3>(3).into_owned() + Matrix3::identity() * self.zupt_var;
+        let y_bar = v_n - Vector3::new(nav.x[3], nav.x[4], nav.x[5]);
+        let p_xv = nav.p.columns(3, 3).into_owned(); // n × 3
+        let s = Matrix3::from_fn(|i, j| p_xv[(3 + i, j)]) + r;
         let chol = s.cholesky().ok_or_else(|| {
             CalibError::Numerical(
                 "navigation innovation covariance is not positive definite".into(),
             )
         })?;
-        let s_inv = chol.inverse();
-        let k = p_xv * s_inv; // 6 × 3
-        nav.x += k * y_bar;
-        // Joseph form for H = [0 I]: P − K P_v· − P_·v Kᵀ + K S Kᵀ.
-        let k_pv = k * p_xv.transpose();
-        let p = nav.p - k_pv - k_pv.transpose() + k * s * k.transpose();
-        nav.p = (p + p.transpose()) * 0.5;
+        let s_inv = DMatrix::from_column_slice(3, 3, chol.inverse().as_slice());
+        let s_d = DMatrix::from_column_slice(3, 3, s.as_slice());
+        let k = &p_xv * &s_inv; // n × 3
+        let y_d = DVector::from_column_slice(y_bar.as_slice());
+        self.innovation_terms += 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>()
+            + y_bar.dot(&chol.solve(&y_bar));
+        nav.x += &k * &y_d;
+        // Joseph form for H = [0 I 0]: P − K P_v· − P_·v Kᵀ + K S Kᵀ.
+        let k_pv = &k * p_xv.transpose();
+        let p = &nav.p - &k_pv - k_pv.transpose() + &k * s_d * k.transpose();
+        nav.p = (&p + p.transpose()) * 0.5;
 
         // Innovation sensitivity M = H V; information from this update;
         // then the bias-free gain applied to the sensitivity.
         let m = self.v.rows(3, 3).into_owned(); // 3 × n_p
-        if self.n_p > 0 {
-            let s_inv_d = DMatrix::from_column_slice(3, 3, s_inv.as_slice());
-            let mt_sinv = m.transpose() * &s_inv_d; // n_p × 3
+        if self.n_p > 0 && !self.parameters_known {
+            let mt_sinv = m.transpose() * &s_inv; // n_p × 3
             self.j += &mt_sinv * &m;
-            self.h += &mt_sinv * DVector::from_column_slice(y_bar.as_slice());
-            let kd = DMatrix::from_column_slice(NAV, 3, k.as_slice());
-            self.v -= kd * &m;
+            self.h += &mt_sinv * y_d;
+            self.v -= &k * &m;
         }
         Ok(Innovation { y_bar, m, s })
     }
 
-    fn solve_information(&self) -> Result<DVector<f64>, CalibError> {
-        let chol = self.j.clone().cholesky().ok_or_else(|| {
+    fn information_cholesky(&self) -> Result<nalgebra::Cholesky<f64, nalgebra::Dyn>, CalibError> {
+        self.j.clone().cholesky().ok_or_else(|| {
             CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
-        Ok(chol.solve(&self.h))
-    }
-
-    fn parameter_covariance(&self) -> Result<DMatrix<f64>, CalibError> {
-        let chol = self.j.clone().cholesky().ok_or_else(|| {
-            CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
-        Ok(chol.inverse())
+        })
     }
 
     /// Takes the bias-free navigation-error estimate x̄ out of the state
@@ -281,34 +363,36 @@ impl SystematicFilter {
     /// velocity jumps after a turn, seen on simulated runs), which breaks
     /// the linear model and left σ several times too small. With x̄ alone
     /// the navigation carries the true parameter error V p, which the
-    /// passes make small.
+    /// passes make small. The wander states stay: like the parameters,
+    /// they are fed back only between passes, through the estimate.
     pub fn take_navigation_errors(&mut self) -> (Vector3<f64>, Vector3<f64>) {
-        let x = self.nav.x;
-        self.nav.x = Vector6::zeros();
+        let x = self.nav.take_navigation();
         (
             Vector3::new(x[0], x[1], x[2]),
             Vector3::new(x[3], x[4], x[5]),
         )
     }
 
-    /// The sensitivity V accumulated since the last call (scaled
-    /// parameters), leaving V zero: with no updates in between, that is the
-    /// B of the whole stretch, which the least-squares cross-check needs.
+    /// The sensitivity V of the navigation errors accumulated since the
+    /// last call (scaled parameters), leaving V zero: with no updates in
+    /// between, that is the B of the whole stretch, which the least-squares
+    /// cross-check needs.
     pub fn take_sensitivity(&mut self) -> DMatrix<f64> {
-        let v = self.v.clone();
+        let v = self.v.rows(0, NAV).into_owned();
         self.v.fill(0.0);
         v
     }
 
     /// The sensitivity V of the navigation errors to the (scaled)
     /// parameters, 6 × n_p.
-    pub fn sensitivity(&self) -> &DMatrix<f64> {
-        &self.v
+    pub fn sensitivity(&self) -> DMatrix<f64> {
+        self.v.rows(0, NAV).into_owned()
     }
 
-    /// The scaled parameter estimate J⁻¹ h.
+    /// The scaled parameter estimate J⁻¹ h: the constant part of each
+    /// parameter (the one the innovations' sensitivity M refers to).
     pub fn scaled_estimate(&self) -> Result<DVector<f64>, CalibError> {
-        self.solve_information()
+        Ok(self.information_cholesky()?.solve(&self.h))
     }
 
     /// Prior σ of each parameter (SI): the unit of the scaled states.
@@ -316,42 +400,92 @@ impl SystematicFilter {
         &self.scale
     }
 
-    /// Parameter estimates (SI) and their 1-σ (SI).
-    pub fn parameters(&self) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
-        let p_hat = self.solve_information()?;
-        let cov = self.parameter_covariance()?;
+    /// Parameter estimates (SI) and their 1-σ (SI) over the `elapsed_s`
+    /// seconds walked: a wandering bias as its mean over that time (SPEC
+    /// §2a; the whole run at the end).
+    pub fn parameters(&self, elapsed_s: f64) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
+        let (p, cov) = self.run_mean(elapsed_s, self.n_p)?;
         Ok((0..self.n_p)
             .map(|i| {
                 let s = self.scale[i];
-                (p_hat[i] * s, cov[(i, i)].max(0.0).sqrt() * s)
+                (p[i] * s, cov[(i, i)].max(0.0).sqrt() * s)
             })
             .unzip())
     }
 
-    /// 1-σ (SI) of the first `n` parameters with the others known: the
-    /// inverse of their block of the information. The information of a
+    /// 1-σ (SI) of the first `n` parameters with the others known (the
+    /// inverse of their block of the information: the information of a
     /// set of columns does not depend on which other columns ride along,
-    /// so this is the σ a filter carrying only those `n` would report.
-    pub fn leading_parameter_sigma_si(&self, n: usize) -> Result<Vec<f64>, CalibError> {
-        let block = self.j.view((0, 0), (n, n)).into_owned();
-        let chol = block.cholesky().ok_or_else(|| {
-            CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
-        let cov = chol.inverse();
+    /// so this is the σ a filter carrying only those `n` would report),
+    /// wandering biases as their mean over `elapsed_s`.
+    pub fn leading_parameter_sigma_si(
+        &self,
+        n: usize,
+        elapsed_s: f64,
+    ) -> Result<Vec<f64>, CalibError> {
+        let (_, cov) = self.run_mean(elapsed_s, n)?;
         Ok((0..n)
             .map(|i| cov[(i, i)].max(0.0).sqrt() * self.scale[i])
             .collect())
     }
 
-    /// Parameter covariance (SI).
-    pub fn parameter_covariance_si(&self) -> Result<DMatrix<f64>, CalibError> {
-        let mut cov = self.parameter_covariance()?;
+    /// Parameter covariance (SI), wandering biases as their mean over
+    /// `elapsed_s`.
+    pub fn parameter_covariance_si(&self, elapsed_s: f64) -> Result<DMatrix<f64>, CalibError> {
+        let (_, mut cov) = self.run_mean(elapsed_s, self.n_p)?;
         for i in 0..self.n_p {
             for k in 0..self.n_p {
                 cov[(i, k)] *= self.scale[i] * self.scale[k];
             }
         }
         Ok(cov)
+    }
+
+    /// The first `n` scaled parameters (the others known) and their
+    /// covariance, each wandering bias b turned into its mean over
+    /// `elapsed_s`, b + (∫ w dt)/elapsed. The integral state s is
+    /// x̄_s + V_s p, so with P = J⁻¹: cov(p, s) = P V_sᵀ and
+    /// cov(s) = P̄_ss + V_s P V_sᵀ.
+    fn run_mean(
+        &self,
+        elapsed_s: f64,
+        n: usize,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), CalibError> {
+        let j = self.j.view((0, 0), (n, n)).into_owned();
+        let chol = j.cholesky().ok_or_else(|| {
+            CalibError::Numerical("parameter information is not positive definite".into())
+        })?;
+        let mut p = chol.solve(&self.h.rows(0, n));
+        let mut cov = chol.inverse();
+        let first = [Group::GyroBias.first(), Group::AccelBias.first()];
+        // (parameter index, integral state index) of each wandering bias.
+        let pairs: Vec<(usize, usize)> = (0..6)
+            .filter_map(|axis| {
+                let param = first[axis / 3] + axis % 3;
+                self.nav
+                    .integral_of(axis)
+                    .filter(|_| param < n && elapsed_s > 0.0)
+                    .map(|k| (param, k))
+            })
+            .collect();
+        if pairs.is_empty() {
+            return Ok((p, cov));
+        }
+        let m = pairs.len();
+        let v_s = DMatrix::from_fn(m, n, |r, c| self.v[(pairs[r].1, c)]);
+        let s_hat = DVector::from_fn(m, |r, _| self.nav.x[pairs[r].1]) + &v_s * &p;
+        let cov_ps = &cov * v_s.transpose(); // n × m
+        let p_bar_ss = DMatrix::from_fn(m, m, |r, c| self.nav.p[(pairs[r].1, pairs[c].1)]);
+        let cov_ss = p_bar_ss + &v_s * &cov_ps;
+        // p_rm = p + D s, D[param, r] = 1/(elapsed · scale).
+        let mut d = DMatrix::zeros(n, m);
+        for (r, &(param, _)) in pairs.iter().enumerate() {
+            d[(param, r)] = 1.0 / (elapsed_s * self.scale[param]);
+        }
+        p += &d * s_hat;
+        let cross = &cov_ps * d.transpose();
+        cov = &cov + &cross + cross.transpose() + &d * cov_ss * d.transpose();
+        Ok((p, (&cov + cov.transpose()) * 0.5))
     }
 
     /// 1-σ of the bias-free navigation errors.
@@ -363,31 +497,6 @@ impl SystematicFilter {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn transition_matches_tilt_to_velocity_coupling() {
-        // With Earth rate off, a tilt φ_E makes δv_N grow as −g φ_E t… with
-        // f = [0,0,g]: δv̇ = φ × f = [φ_N g, −φ_E g, 0].
-        let f = error_dynamics(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8));
-        let a = transition(&f, 2.0);
-        assert!((a[(4, 0)] + 9.8 * 2.0).abs() < 1e-12);
-        assert!((a[(3, 1)] - 9.8 * 2.0).abs() < 1e-12);
-        assert_eq!(a[(0, 0)], 1.0);
-    }
-
-    #[test]
-    fn process_noise_has_the_random_walk_closed_form() {
-        let f = error_dynamics(&Vector3::zeros(), &Vector3::new(0.0, 0.0, 9.8));
-        let mut qc = Matrix6::zeros();
-        for i in 0..6 {
-            qc[(i, i)] = 1e-10;
-        }
-        let t = 1.5;
-        let q = process_noise(&f, &qc, t);
-        // Velocity: q t + g² q t³/3 (attitude noise integrated through g).
-        assert!((q[(3, 3)] - (1e-10 * t + 9.8 * 9.8 * 1e-10 * t.powi(3) / 3.0)).abs() < 1e-22);
-        assert!((q[(0, 0)] - 1e-10 * t).abs() < 1e-24);
-    }
 
     /// The filter on data drawn from its own linear model: every
     /// parameter's error over many trials must be as large as its σ says,
@@ -401,7 +510,7 @@ mod tests {
     }
 
     fn check_linear_model_consistency(arw: f64, vrw: f64) {
-        use nalgebra::Matrix6xX;
+        use nalgebra::{Matrix6xX, Vector6};
         use rand::{Rng, SeedableRng};
         use rand_distr::StandardNormal;
         let window = 1.0;
@@ -430,7 +539,8 @@ mod tests {
             let mut normal = || rng.sample::<f64, _>(StandardNormal);
             let p_true: Vec<f64> = (0..n_p).map(|_| normal() * 1e-3).collect();
             let mut x = Vector6::from_fn(|i, _| if i < 3 { 1e-3 } else { 1e-4 });
-            let mut kf = SystematicFilter::new(f, &p0, &prior, arw, vrw, 1e-6);
+            let noise = NoiseModel::white(arw, vrw);
+            let mut kf = SystematicFilter::new(f, &p0, &prior, &noise, 0.0, 1e-6);
             for k in 0..1500 {
                 // Each parameter drives a direction that changes every
                 // 300 s, like a multi-position scheme.
@@ -456,16 +566,16 @@ mod tests {
                 let bp = b_eff * DVector::from_vec(p_true.clone());
                 let w = lq * Vector6::from_fn(|_, _| normal());
                 x = a * x + Vector6::from_column_slice(bp.as_slice()) + w;
-                kf.propagate(window);
+                kf.propagate(window, &Matrix3::identity());
                 let z = Vector3::new(x[3], x[4], x[5]) + Vector3::from_fn(|_, _| normal() * 1e-6);
-                kf.update_zero_velocity(&z).unwrap();
+                kf.update_zero_velocity(&z, &Matrix3::identity()).unwrap();
                 let (phi, dv) = kf.take_navigation_errors();
                 for i in 0..3 {
                     x[i] -= phi[i];
                     x[i + 3] -= dv[i];
                 }
             }
-            let (d, s) = kf.parameters().unwrap();
+            let (d, s) = kf.parameters(0.0).unwrap();
             for j in 0..n_p {
                 z2[j] += ((d[j] - p_true[j]) / s[j]).powi(2);
             }

@@ -11,6 +11,7 @@ use super::error::CalibError;
 use super::filter::Innovation;
 use super::model_check::{CheckAccumulator, ModelCheck};
 use super::prescan::dwell_at;
+use super::replay::PassTrace;
 use super::result::{Convergence, DwellResidual};
 use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
@@ -108,6 +109,8 @@ pub(super) struct Pass {
     /// the in-run thermal result needs each value's correlation with its
     /// coefficient).
     pub covariance: Option<DMatrix<f64>>,
+    /// The pass's windows, when asked for (a noise model fitted to them).
+    pub trace: Option<PassTrace>,
 }
 
 /// One pass of alignment and the filter over the records compensated with
@@ -119,12 +122,27 @@ pub(super) fn kf_pass(
     effects: &[f64],
     progress: &mut dyn FnMut(f64),
 ) -> Result<Pass, CalibError> {
+    filter_pass(ctx, params, effects, false, progress)
+}
+
+/// [`kf_pass`], keeping the windows as a [`PassTrace`] when `traced`.
+pub(super) fn filter_pass(
+    ctx: &PassContext,
+    params: &ErrorParameters,
+    effects: &[f64],
+    traced: bool,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Pass, CalibError> {
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
     let terms = effect_terms(&ctx.opts.model, effects);
 
     let mut kf = ctx.filter_with_effects(ctx.opts.zupt_sigma_mps, &terms.scale);
     let n_p = kf.n_params();
+    let mut trace = traced.then(|| {
+        kf.keep_window_inputs();
+        PassTrace::new(n_p)
+    });
 
     let n_windows = (ctx.scan.n_records as usize).div_ceil(ctx.window()).max(1);
     // One slot kept for the last window, so the history never exceeds
@@ -144,18 +162,27 @@ pub(super) fn kf_pass(
     walk(ctx, &comp, &c_b_n0, &mut kf, &terms, progress, |kf, w| {
         let d0 = dwell_at(&ctx.scan.segments, w.t_start);
         let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
-        if dwell.is_some() || ctx.opts.zupt_in_motion {
-            let innov = kf.update_zero_velocity(&w.nav.v_n)?;
+        let observed = dwell.is_some() || ctx.opts.zupt_in_motion;
+        let c_b_n = w.nav.c_b_n();
+        if let Some(t) = trace.as_mut() {
+            let v_n = observed.then_some(&w.nav.v_n);
+            t.record(kf, w.t_end - w.t_start, &c_b_n, v_n);
+        }
+        if observed {
+            let innov = kf.update_zero_velocity(&w.nav.v_n, &c_b_n)?;
             if let Some(d) = dwell {
                 dwell_acc[d].add(&innov);
                 check.add(d, 0.5 * (w.t_start + w.t_end), &innov)?;
             }
             let (phi, dv) = kf.take_navigation_errors();
+            if let Some(t) = trace.as_mut() {
+                t.fed_back(&phi, &dv);
+            }
             w.nav.correct(&phi, &dv, &Vector3::zeros());
             w.corrected = true;
         }
         if w.index % every == 0 || w.index + 1 == n_windows {
-            let (d, s) = kf.parameters()?;
+            let (d, s) = kf.parameters(w.t_end - ctx.scan.t_begin)?;
             history.t.push(w.t_end);
             history.value.push(
                 (0..N_PARAMS)
@@ -171,11 +198,15 @@ pub(super) fn kf_pass(
         Ok(())
     })?;
 
-    let (delta, sigma) = kf.parameters()?;
+    let run_s = ctx.scan.duration_s();
+    let (delta, sigma) = kf.parameters(run_s)?;
     if sigma.iter().any(|s| !s.is_finite()) || delta.iter().any(|d| !d.is_finite()) {
         return Err(CalibError::Numerical("the filter diverged".into()));
     }
     let p_hat = kf.scaled_estimate()?;
+    if let Some(t) = trace.as_mut() {
+        t.finish(p_hat.clone(), kf.log_likelihood()?);
+    }
     let mut dwell_residuals = Vec::new();
     for (i, seg) in ctx.scan.segments.iter().enumerate() {
         if seg.kind == SegmentKind::Dwell {
@@ -197,6 +228,7 @@ pub(super) fn kf_pass(
         history,
         dwell_residuals,
         model_check,
-        covariance: Some(kf.parameter_covariance_si()?),
+        covariance: Some(kf.parameter_covariance_si(run_s)?),
+        trace,
     })
 }

@@ -70,7 +70,7 @@ pub(crate) fn walk_nodes(
     mut on_window: impl FnMut(&WindowEnd, &DMatrix<f64>, Option<usize>),
 ) -> Result<(), CalibError> {
     // Used only to accumulate the parameter columns between nodes.
-    let mut sens = ctx.filter_with_effects(1.0, &effects.scale);
+    let mut sens = ctx.column_accumulator(&effects.scale);
     let mut schedule = NodeSchedule::new(window_s);
     walk(
         ctx,
@@ -82,7 +82,7 @@ pub(crate) fn walk_nodes(
         |sens, w| {
             match schedule.node_at(&ctx.scan.segments, w.t_start, w.t_end) {
                 Some(d) => on_window(w, &sens.take_sensitivity(), Some(d)),
-                None => on_window(w, sens.sensitivity(), None),
+                None => on_window(w, &sens.sensitivity(), None),
             }
             Ok(())
         },

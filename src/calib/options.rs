@@ -7,11 +7,45 @@ use super::effect_model::ErrorModel;
 use super::run::EstimatorKind;
 use super::segment::DetectOptions;
 
-/// Sensor noise densities used as process noise.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+/// A sensor noise model in canonical units, one value per triad: SPEC §2's
+/// white noise and §2a's real-sensor terms (the truth file's `noise` names;
+/// an absent term is zero).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct NoiseDensity {
     pub gyro_arw_deg_rt_h: f64,
     pub accel_vrw_ug_rt_hz: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_bias_instability_deg_h: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_bias_instability_ug: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_rrw_deg_h_rt_h: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_rw_ug_rt_h: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_quantum_arcsec: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_quantum_mps: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+impl NoiseDensity {
+    /// White noise only (SPEC §2): ARW in deg/√h, VRW in µg/√Hz.
+    pub const fn white(gyro_arw_deg_rt_h: f64, accel_vrw_ug_rt_hz: f64) -> Self {
+        NoiseDensity {
+            gyro_arw_deg_rt_h,
+            accel_vrw_ug_rt_hz,
+            gyro_bias_instability_deg_h: 0.0,
+            accel_bias_instability_ug: 0.0,
+            gyro_rrw_deg_h_rt_h: 0.0,
+            accel_rw_ug_rt_h: 0.0,
+            gyro_quantum_arcsec: 0.0,
+            accel_quantum_mps: 0.0,
+        }
+    }
 }
 
 /// Tunable parts of the estimator. The defaults are what the accuracy
@@ -44,8 +78,12 @@ pub struct EstimateOptions {
     /// information.
     pub zupt_in_motion: bool,
     pub detect: DetectOptions,
-    /// Noise densities; `None` measures them from the dwells' increments.
+    /// The noise model; `None` measures it from the run.
     pub noise: Option<NoiseDensity>,
+    /// With the noise measured: fit its terms to the run's zero-velocity
+    /// observations (`noise_fit`) and calibrate again under the fitted
+    /// model.
+    pub fit_noise: bool,
     /// Prior 1-σ of each parameter family as a multiple of the seed
     /// paper's magnitude.
     pub prior_scale: f64,
@@ -73,6 +111,7 @@ impl Default for EstimateOptions {
             zupt_in_motion: false,
             detect: DetectOptions::default(),
             noise: None,
+            fit_noise: true,
             prior_scale: 4.0,
             cross_check: true,
             history_points: 500,

@@ -31,6 +31,12 @@ pub struct Prescan {
 }
 
 impl Prescan {
+    /// The run's length from the start of its first record's interval to
+    /// its last record, s.
+    pub fn duration_s(&self) -> f64 {
+        self.t_end - self.t_begin
+    }
+
     pub fn dwells(&self) -> impl Iterator<Item = &RunSegment> {
         self.segments
             .iter()

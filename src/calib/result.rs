@@ -128,6 +128,10 @@ pub struct CalibrationResult {
     /// given): deg/√h and µg/√Hz.
     pub noise_arw_deg_rt_h: f64,
     pub noise_vrw_ug_rt_hz: f64,
+    /// The whole noise model the filter assumed (SPEC §2a), per axis, and
+    /// where it came from; absent in results stored before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_model: Option<CalibrationNoise>,
     pub segments: Vec<RunSegment>,
     /// Gaps in the time stamps (SPEC §2a: records lost), each bridged at
     /// rest and named in `warnings`; absent when none.
@@ -149,6 +153,46 @@ pub struct CalibrationResult {
     /// model, SPEC §3a's form; `parameters` are then the values at 25 °C.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal: Option<RunThermal>,
+}
+
+/// The noise model a calibration assumed, per body axis (x, y, z), in
+/// SPEC §2 and §2a's units and names: what its σ and model check rest on.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct NoiseModelReport {
+    pub gyro_arw_deg_rt_h: [f64; 3],
+    pub gyro_quantum_arcsec: [f64; 3],
+    pub gyro_bias_instability_deg_h: [f64; 3],
+    pub gyro_rrw_deg_h_rt_h: [f64; 3],
+    pub accel_vrw_ug_rt_hz: [f64; 3],
+    pub accel_quantum_mps: [f64; 3],
+    pub accel_bias_instability_ug: [f64; 3],
+    pub accel_rw_ug_rt_h: [f64; 3],
+}
+
+/// Where a calibration's noise model came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseSource {
+    /// Stated by the caller (`--noise` options).
+    Given,
+    /// Read from the run's dwells (Allan curves, pulse quanta): white
+    /// noise, no §2a term seen.
+    Measured,
+    /// Started from the dwells' reading and fitted to the run's own
+    /// zero-velocity innovations (maximum likelihood).
+    Fitted,
+}
+
+/// The noise model a calibration assumed: its σ and its model check rest
+/// on it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CalibrationNoise {
+    pub source: NoiseSource,
+    #[serde(flatten)]
+    pub model: NoiseModelReport,
+    /// Likelihood evaluations the fit spent (with `fitted`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_evaluations: Option<usize>,
 }
 
 impl CalibrationResult {

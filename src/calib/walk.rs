@@ -15,6 +15,7 @@ use super::effect_sensitivity::{
 };
 use super::error::CalibError;
 use super::filter::{error_dynamics, SystematicFilter};
+use super::noise_model::NoiseModel;
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
 use super::priors::{initial_navigation_covariance, prior_sigma};
@@ -41,7 +42,11 @@ pub(crate) struct PassContext<'a> {
     pub run: &'a RunInfo,
     pub opts: &'a EstimateOptions,
     pub scan: &'a Prescan,
-    /// Noise densities in use, rad/√s and m/s/√s.
+    /// The sensor noise the filter assumes (SPEC §2, §2a).
+    pub noise: NoiseModel,
+    /// Its white densities as one value per triad (the RMS over the
+    /// axes), rad/√s and m/s/√s: what the estimators that take one density
+    /// use (alignment, the cross-check, the discrepancy workflow).
     pub arw: f64,
     pub vrw: f64,
     pub cancel: &'a AtomicBool,
@@ -67,6 +72,34 @@ impl PassContext<'_> {
         zupt_sigma_mps: f64,
         effect_scale: &[f64],
     ) -> SystematicFilter {
+        self.filter_with_noise(zupt_sigma_mps, effect_scale, &self.noise)
+    }
+
+    /// The same filter with white noise only: for a walk that only
+    /// accumulates the parameter columns (the wander states would be
+    /// carried for nothing).
+    pub fn column_accumulator(&self, effect_scale: &[f64]) -> SystematicFilter {
+        let white = NoiseModel::white(self.arw, self.vrw);
+        self.filter_with_noise(1.0, effect_scale, &white)
+    }
+
+    /// The filter under another noise model, `zupt_sigma_mps` and effect
+    /// states scaled by `effect_scale`.
+    pub(crate) fn filter_for(
+        &self,
+        noise: &NoiseModel,
+        zupt_sigma_mps: f64,
+        effect_scale: &[f64],
+    ) -> SystematicFilter {
+        self.filter_with_noise(zupt_sigma_mps, effect_scale, noise)
+    }
+
+    fn filter_with_noise(
+        &self,
+        zupt_sigma_mps: f64,
+        effect_scale: &[f64],
+        noise: &NoiseModel,
+    ) -> SystematicFilter {
         let site = &self.run.site;
         let mut scale = prior_sigma(self.opts.prior_scale);
         scale.extend_from_slice(effect_scale);
@@ -74,16 +107,29 @@ impl PassContext<'_> {
             error_dynamics(&site.omega_ie_n(), &site.f_rest_n()),
             &initial_navigation_covariance(site, self.opts.prior_scale),
             &scale,
-            self.arw,
-            self.vrw,
+            noise,
+            self.scan.duration_s(),
             zupt_sigma_mps,
         )
     }
 }
 
 impl<'a> PassContext<'a> {
-    /// The passes' context over a scanned run: the noise densities from
-    /// the options, else as the dwells measured them, floored.
+    /// The context under another noise model.
+    pub(crate) fn with_noise(&self, noise: NoiseModel) -> PassContext<'a> {
+        let noise = noise.floored(MIN_ARW, MIN_VRW);
+        PassContext {
+            noise,
+            arw: noise.gyro.white_rms(),
+            vrw: noise.accel.white_rms(),
+            temperature: self.temperature.clone(),
+            ..*self
+        }
+    }
+
+    /// The passes' context over a scanned run: the noise model from the
+    /// options, else as the dwells measured it, its white densities
+    /// floored.
     pub fn new(
         source: &'a dyn RecordSource,
         run: &'a RunInfo,
@@ -91,20 +137,19 @@ impl<'a> PassContext<'a> {
         scan: &'a Prescan,
         cancel: &'a AtomicBool,
     ) -> Self {
-        let (arw, vrw) = match opts.noise {
-            Some(n) => (
-                n.gyro_arw_deg_rt_h * DEG_PER_RT_H,
-                n.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
-            ),
-            None => (scan.arw, scan.vrw),
-        };
+        let noise = match &opts.noise {
+            Some(n) => NoiseModel::from_density(n),
+            None => NoiseModel::white(scan.arw, scan.vrw),
+        }
+        .floored(MIN_ARW, MIN_VRW);
         PassContext {
             source,
             run,
             opts,
             scan,
-            arw: arw.max(MIN_ARW),
-            vrw: vrw.max(MIN_VRW),
+            noise,
+            arw: noise.gyro.white_rms(),
+            vrw: noise.accel.white_rms(),
             cancel,
             temperature: None,
         }
@@ -327,7 +372,7 @@ pub(crate) fn walk(
         in_window += 1;
         count += 1;
         if in_window == window || count == ctx.scan.n_records {
-            sens.propagate(r.t - t_ws);
+            sens.propagate(r.t - t_ws, &nav.c_b_n());
             let mut end = WindowEnd {
                 t_start: t_ws,
                 t_end: r.t,

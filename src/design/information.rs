@@ -41,6 +41,7 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use crate::calib::effect_sensitivity::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
 use crate::calib::filter::{error_dynamics, SystematicFilter};
+use crate::calib::noise_model::NoiseModel;
 use crate::calib::priors::{initial_navigation_covariance, prior_sigma};
 use crate::calib::sensitivity::base_columns;
 use crate::calib::CalibError;
@@ -54,10 +55,8 @@ use crate::sim::Scheme;
 #[derive(Clone, Debug)]
 pub struct ObjectiveSettings {
     pub site: Site,
-    /// Gyro angle random walk, rad/√s, and accelerometer velocity random
-    /// walk, m/s/√s.
-    pub arw: f64,
-    pub vrw: f64,
+    /// The sensor noise (SPEC §2, §2a) the estimator would assume.
+    pub noise: NoiseModel,
     /// σ of a zero-velocity observation, m/s.
     pub zupt_sigma_mps: f64,
     /// Prior 1-σ of each parameter family as a multiple of the seed
@@ -178,8 +177,8 @@ pub fn scheme_information(
         error_dynamics(&s.site.omega_ie_n(), &s.site.f_rest_n()),
         &initial_navigation_covariance(&s.site, s.prior_scale),
         &scale,
-        s.arw,
-        s.vrw,
+        &s.noise,
+        traj.duration(),
         s.zupt_sigma_mps,
     );
     let mut walk = Walk {
@@ -226,12 +225,12 @@ pub fn scheme_information(
     }
     // The base calibration does not carry the effect states: its σ is that
     // of the 24 with the effects held.
-    let sigma_si = kf.leading_parameter_sigma_si(N_PARAMS)?;
+    let sigma_si = kf.leading_parameter_sigma_si(N_PARAMS, traj.duration())?;
     let effect_covariance_si = if s.effects.is_empty() {
         DMatrix::zeros(0, 0)
     } else {
         let m = s.effects.len();
-        kf.parameter_covariance_si()?
+        kf.parameter_covariance_si(traj.duration())?
             .view((N_PARAMS, N_PARAMS), (m, m))
             .into_owned()
     };
@@ -267,8 +266,9 @@ impl Walk<'_> {
         let t = length / n;
         for _ in 0..n as usize {
             add_rest(self.kf, kin, self.t, t, self.effects);
-            self.kf.propagate(t);
-            self.kf.update_zero_velocity(&Vector3::zeros())?;
+            self.kf.propagate(t, &kin.c_b_n);
+            self.kf
+                .update_zero_velocity(&Vector3::zeros(), &kin.c_b_n)?;
             self.kf.take_navigation_errors();
             self.t += t;
         }
@@ -286,7 +286,7 @@ impl Walk<'_> {
         let t = length / n;
         for _ in 0..n as usize {
             add_rest(self.kf, kin, self.t, t, self.effects);
-            self.kf.propagate(t);
+            self.kf.propagate(t, &kin.c_b_n);
             self.t += t;
         }
     }
@@ -337,7 +337,8 @@ impl Walk<'_> {
                 });
                 add_step(self.kf, &around, (h, tau), self.effects, t_ws + tau);
             }
-            self.kf.propagate(window);
+            let last = kins[((w + 1) * per_window - 1 + margin).min(kins.len() - 1)];
+            self.kf.propagate(window, &last.c_b_n);
         }
         self.t = seg.t1;
     }

@@ -23,8 +23,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::calib::{CalibError, EstimateOptions, NoiseDensity};
-use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
+use crate::calib::{CalibError, EstimateOptions, NoiseDensity, NoiseModel};
 use crate::model::PARAMETERS;
 use crate::nav::Site;
 use crate::sim::scheme::{Frame, DEFAULT_DWELL_S};
@@ -110,10 +109,7 @@ impl Default for DesignRequest {
     fn default() -> Self {
         DesignRequest {
             target: None,
-            noise: NoiseDensity {
-                gyro_arw_deg_rt_h: 0.0003,
-                accel_vrw_ug_rt_hz: 5.0,
-            },
+            noise: NoiseDensity::white(0.0003, 5.0),
             axes: Axes::Body,
             rate_dps: 10.0,
             accel_dps2: 20.0,
@@ -183,8 +179,7 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
     let opts = EstimateOptions::default();
     ObjectiveSettings {
         site: req.site,
-        arw: req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H,
-        vrw: req.noise.accel_vrw_ug_rt_hz * UG_PER_RT_HZ,
+        noise: NoiseModel::from_density(&req.noise),
         zupt_sigma_mps: opts.zupt_sigma_mps,
         prior_scale: opts.prior_scale,
         initial_attitude_deg: req.initial_attitude_deg,

@@ -12,7 +12,7 @@ use super::data::DataFormat;
 use crate::model::thermal::PLAUSIBLE_C;
 use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::Site;
-use crate::sim::{Noise, SchemeRef, SimConfig};
+use crate::sim::{BiasMean, Noise, SchemeRef, SimConfig};
 
 /// Errors reading or checking a JSON document.
 #[derive(Debug, thiserror::Error)]
@@ -193,6 +193,13 @@ pub struct Truth {
     pub parameters: BTreeMap<String, f64>,
     #[serde(default)]
     pub noise: Noise,
+    /// SPEC §2a: the run means of the wandering biases (instability and
+    /// random walk) over every record from t = 0 to the end: what a
+    /// calibration's bias is compared with, b + this. Written by the
+    /// simulator after the records; an output, so a truth read back
+    /// simulates the same run whatever it says here.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias_mean_over_run: Option<BiasMean>,
     #[serde(default)]
     pub effects: Effects,
     #[serde(default)]
@@ -242,7 +249,7 @@ impl Truth {
             scheme,
             params: self.params()?,
             effects: self.effects,
-            noise: self.noise,
+            noise: self.noise.clone(),
             initial_attitude_error_deg: self.initial_attitude_error_deg,
             seed: self.seed,
             thermal: self.thermal,
@@ -251,7 +258,8 @@ impl Truth {
     }
 
     /// The truth of a simulation (the inverse of [`Truth::to_sim_config`]);
-    /// the scheme is written out in full.
+    /// the scheme is written out in full. `bias_mean_over_run` is left
+    /// out: only the records give it (`Simulator::bias_mean_over_run`).
     pub fn from_sim_config(cfg: &SimConfig) -> Self {
         Truth {
             sample_rate_hz: cfg.sample_rate_hz,
@@ -260,7 +268,8 @@ impl Truth {
             height_m: cfg.site.height_m,
             gravity_mps2: cfg.site.gravity_mps2,
             parameters: cfg.params.to_canonical(),
-            noise: cfg.noise,
+            noise: cfg.noise.clone(),
+            bias_mean_over_run: None,
             effects: cfg.effects,
             initial_attitude_error_deg: cfg.initial_attitude_error_deg,
             scheme: SchemeRef::Inline(cfg.scheme.clone()),

@@ -1,8 +1,10 @@
 //! Run files: streaming readers and writers for the data (CSV, gzip CSV,
-//! f64le) and the JSON documents beside them (SPEC §5).
+//! f64le) and the JSON documents beside them (SPEC §5), and logs of other
+//! formats imported as runs (`psins`).
 
 pub mod data;
 pub mod meta;
+pub mod psins;
 pub mod run;
 
 pub use meta::{RunMetadata, Truth};

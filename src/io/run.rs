@@ -52,7 +52,8 @@ pub fn metadata_sidecar(data: &Path) -> PathBuf {
 
 /// Simulates `cfg` into `dir` (created if needed): the data streamed to
 /// `run.csv`/`run.csv.gz`/`run.bin`, then `run.json` (metadata for
-/// `unit_serial`) and `truth.json`. A run with a temperature history has
+/// `unit_serial`) and `truth.json`, written after the records so that it
+/// holds the wandering biases' `bias_mean_over_run` (SPEC §2a). A run with a temperature history has
 /// the `temp_c` column (T at each record's time); a soaked one states
 /// `temperature_c` in its metadata.
 pub fn write_simulated_run(
@@ -123,7 +124,9 @@ pub fn write_simulated_run(
     let metadata = metadata_sidecar(&data);
     write_json(&metadata, &meta)?;
     let truth = dir.join("truth.json");
-    write_json(&truth, &Truth::from_sim_config(cfg))?;
+    let mut truth_doc = Truth::from_sim_config(cfg);
+    truth_doc.bias_mean_over_run = sim.bias_mean_over_run();
+    write_json(&truth, &truth_doc)?;
     Ok(RunFiles {
         data,
         metadata,

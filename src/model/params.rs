@@ -162,16 +162,27 @@ impl ErrorParameters {
 
     /// The values in canonical units, by canonical name.
     pub fn to_canonical(&self) -> BTreeMap<String, f64> {
-        PARAMETERS
-            .iter()
-            .zip(self.si.iter())
-            .map(|(info, v)| (info.name.to_string(), v / info.si_per_unit))
+        (0..N_PARAMS)
+            .map(|i| (PARAMETERS[i].name.to_string(), self.canonical(i)))
             .collect()
     }
 
-    /// Value of parameter `i` in its canonical unit.
+    /// Value of parameter `i` in its canonical unit: of the doubles next to
+    /// SI / unit, one that [`Self::from_canonical`] turns back into the
+    /// same SI value when there is one, so that a truth written in
+    /// canonical units reproduces its run bit for bit.
     pub fn canonical(&self, i: usize) -> f64 {
-        self.si[i] / PARAMETERS[i].si_per_unit
+        let (v, unit) = (self.si[i], PARAMETERS[i].si_per_unit);
+        let c = v / unit;
+        if c * unit == v || !c.is_finite() || c == 0.0 {
+            return c;
+        }
+        // Neighbouring doubles of the same sign: adjacent bit patterns.
+        (1..=8i64)
+            .flat_map(|d| [d, -d])
+            .map(|d| f64::from_bits((c.to_bits() as i64 + d) as u64))
+            .find(|n| n * unit == v)
+            .unwrap_or(c)
     }
 
     fn v3(&self, at: usize) -> Vector3<f64> {

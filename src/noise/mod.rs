@@ -3,12 +3,18 @@
 //! and the noise terms identified from it: quantization, white noise
 //! (ARW, VRW), bias instability, and rate or acceleration random walk.
 //!
-//! The run streams past twice, as in calibration: the pre-scan finds the
-//! dwells (`calib::prescan`, the estimator's own still/moving decision),
-//! then one more read accumulates the Allan sums over the records inside
-//! them (`allan`), in memory bounded by the longest τ. The curve's
-//! confidence comes from equivalent degrees of freedom (`edf`), and the
-//! terms from a weighted non-negative fit of the whole curve (`fit`).
+//! The caller finds the stretches at rest (the pipeline with the
+//! estimator's pre-scan, `calib::prescan`; the estimator itself over its
+//! own dwells), so this module names nothing of `calib` and the estimator
+//! can build on it. One read of the records accumulates the Allan sums
+//! over the records inside the stretches (`allan`, each cluster's rate over
+//! its own records' intervals), in memory bounded by the longest τ, and
+//! finds each axis's pulse quantum (`quantum`). Each curve is then read
+//! against the model (`channel`): a weighted non-negative fit (`fit`) with
+//! Q held where a quantum was found, each term's σ or bound from the
+//! curve's covariance (`covariance`), the bands where the curve departs
+//! from the model and their likely cause (`departures`); `term` and
+//! `report` write it in reporting units.
 //!
 //! "Bias instability" is B of IEEE Std 952/1293: the flicker floor of the
 //! Allan deviation is √(2 ln 2/π)·B ≈ 0.664·B, so B is that floor divided
@@ -16,16 +22,20 @@
 
 pub mod allan;
 mod analyse;
+pub mod channel;
+pub mod covariance;
+pub mod departures;
 pub mod edf;
 pub mod fit;
+pub mod quantum;
 pub mod report;
+pub mod term;
 
 use serde::{Deserialize, Serialize};
 
-use crate::calib::{CalibError, DetectOptions};
-
-pub use analyse::analyse;
+pub use analyse::{analyse, Stretches};
 pub use report::{AccelNoise, GyroNoise, NoiseReport, Span, Triad};
+pub use term::{Term, TermStatus};
 
 /// Errors of a noise analysis.
 #[derive(Debug, thiserror::Error)]
@@ -49,21 +59,12 @@ pub enum NoiseError {
     Options(String),
 }
 
-impl From<CalibError> for NoiseError {
-    fn from(e: CalibError) -> Self {
-        match e {
-            CalibError::Source(m) => NoiseError::Source(m),
-            CalibError::Cancelled => NoiseError::Cancelled,
-            CalibError::Unusable(m) | CalibError::Numerical(m) => NoiseError::Unusable(m),
-            CalibError::Options(m) => NoiseError::Options(m),
-        }
-    }
-}
-
 /// How the analysis runs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct NoiseOptions {
+    /// What the caller's stretches are: the dwells, or the whole run
+    /// (the pipeline finds them accordingly).
     pub span: Span,
     /// The longest τ as a fraction of the longest stretch. At 1/5 the
     /// longest dwell still holds three fifths of its length in terms;
@@ -77,8 +78,6 @@ pub struct NoiseOptions {
     pub max_cluster_records: usize,
     /// The fewest τ points the fit accepts.
     pub min_points: usize,
-    /// The still/moving decision that finds the dwells.
-    pub detect: DetectOptions,
 }
 
 impl Default for NoiseOptions {
@@ -89,7 +88,6 @@ impl Default for NoiseOptions {
             points_per_decade: 10,
             max_cluster_records: 1 << 19,
             min_points: 8,
-            detect: DetectOptions::default(),
         }
     }
 }

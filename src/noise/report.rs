@@ -4,7 +4,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::fit::{NoiseTerms, TermFit};
+use super::channel::ChannelFit;
+use super::departures::Departure;
+use super::fit::NoiseTerms;
+use super::term::{Reach, Term};
 use crate::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
 
 /// √h in s^½: turns a per-√s density into per √h.
@@ -36,55 +39,101 @@ impl<T> Triad<T> {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GyroNoise {
     /// Angle random walk N, deg/√h.
-    pub arw_deg_rt_h: f64,
+    pub arw_deg_rt_h: Term,
     /// Bias instability B, deg/h: the flicker floor of the Allan deviation
     /// is 0.664·B (IEEE Std 952/1293).
-    pub bias_instability_deg_h: f64,
+    pub bias_instability_deg_h: Term,
     /// Rate random walk K, deg/h/√h.
-    pub rate_random_walk_deg_h_rt_h: f64,
+    pub rate_random_walk_deg_h_rt_h: Term,
     /// Angle quantization Q, arcsec (σ² = 3Q²/τ²).
-    pub angle_quantization_arcsec: f64,
-    /// How closely the four-term model follows the curve (see
-    /// [`TermFit::rms_z`]).
+    pub angle_quantization_arcsec: Term,
+    /// The pulse quantum q every record is a whole number of, arcsec;
+    /// absent when some record is not (or the axis never moved).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quantum_arcsec: Option<f64>,
+    /// How closely the model follows the curve where it was fitted (see
+    /// [`super::fit::TermFit::rms_z`]).
     pub fit_rms_z: f64,
+    /// Bands of τ where the curve departs from the model.
+    #[serde(default)]
+    pub departures: Vec<Departure>,
 }
 
 /// An accelerometer axis's noise terms.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AccelNoise {
     /// Velocity random walk N, µg/√Hz.
-    pub vrw_ug_rt_hz: f64,
+    pub vrw_ug_rt_hz: Term,
     /// Bias instability B, µg (flicker floor 0.664·B).
-    pub bias_instability_ug: f64,
+    pub bias_instability_ug: Term,
     /// Acceleration random walk K, µg/√h.
-    pub acceleration_random_walk_ug_rt_h: f64,
+    pub acceleration_random_walk_ug_rt_h: Term,
     /// Velocity quantization Q, mm/s.
-    pub velocity_quantization_mm_s: f64,
+    pub velocity_quantization_mm_s: Term,
+    /// The pulse quantum q, m/s.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub quantum_mps: Option<f64>,
     pub fit_rms_z: f64,
+    #[serde(default)]
+    pub departures: Vec<Departure>,
+}
+
+/// Report units of Q, N, B, K: SI per unit and the unit's name.
+const GYRO_UNITS: [(f64, &str); 4] = [
+    (ARCSEC, "arcsec"),
+    (DEG_PER_RT_H, "deg/sqrt(h)"),
+    (DEG_PER_H, "deg/h"),
+    (DEG_PER_H / RT_HOUR_S, "deg/h/sqrt(h)"),
+];
+const ACCEL_UNITS: [(f64, &str); 4] = [
+    (1e-3, "mm/s"),
+    (UG_PER_RT_HZ, "ug/sqrt(Hz)"),
+    (UG, "ug"),
+    (UG / RT_HOUR_S, "ug/sqrt(h)"),
+];
+const REACH: [Reach; 4] = [Reach::Short, Reach::Short, Reach::Long, Reach::Long];
+
+/// Q, N, B, K of an axis in report units.
+fn terms_of(read: &ChannelFit, units: &[(f64, &str); 4], covered: [f64; 2]) -> [Term; 4] {
+    std::array::from_fn(|k| {
+        Term::from_estimate(
+            &read.fit.estimates[k],
+            units[k],
+            read.bands[k],
+            covered,
+            REACH[k],
+            read.spoiled[k],
+        )
+    })
 }
 
 impl GyroNoise {
-    pub fn from_fit(fit: &TermFit) -> Self {
-        let t: &NoiseTerms = &fit.terms;
+    /// An axis's reading in report units; `covered` the curve's τ range.
+    pub fn from_channel(read: &ChannelFit, quantum: Option<f64>, covered: [f64; 2]) -> Self {
+        let [q, n, b, k] = terms_of(read, &GYRO_UNITS, covered);
         GyroNoise {
-            arw_deg_rt_h: t.white / DEG_PER_RT_H,
-            bias_instability_deg_h: t.flicker / DEG_PER_H,
-            rate_random_walk_deg_h_rt_h: t.random_walk * RT_HOUR_S / DEG_PER_H,
-            angle_quantization_arcsec: t.quantization / ARCSEC,
-            fit_rms_z: fit.rms_z,
+            arw_deg_rt_h: n,
+            bias_instability_deg_h: b,
+            rate_random_walk_deg_h_rt_h: k,
+            angle_quantization_arcsec: q,
+            quantum_arcsec: quantum.map(|q| q / ARCSEC),
+            fit_rms_z: read.fit.rms_z,
+            departures: read.departures.clone(),
         }
     }
-}
 
-impl GyroNoise {
-    /// The identified terms back in SI (the inverse of [`Self::from_fit`]).
+    /// The terms the model draws with (resolved and fixed; 0 for those
+    /// not resolved), SI.
     pub fn terms_si(&self) -> NoiseTerms {
-        NoiseTerms {
-            quantization: self.angle_quantization_arcsec * ARCSEC,
-            white: self.arw_deg_rt_h * DEG_PER_RT_H,
-            flicker: self.bias_instability_deg_h * DEG_PER_H,
-            random_walk: self.rate_random_walk_deg_h_rt_h * DEG_PER_H / RT_HOUR_S,
-        }
+        si(
+            [
+                &self.angle_quantization_arcsec,
+                &self.arw_deg_rt_h,
+                &self.bias_instability_deg_h,
+                &self.rate_random_walk_deg_h_rt_h,
+            ],
+            &GYRO_UNITS,
+        )
     }
 
     /// The fitted Allan deviation at τ, deg/h.
@@ -94,14 +143,29 @@ impl GyroNoise {
 }
 
 impl AccelNoise {
-    /// The identified terms back in SI (the inverse of [`Self::from_fit`]).
-    pub fn terms_si(&self) -> NoiseTerms {
-        NoiseTerms {
-            quantization: self.velocity_quantization_mm_s * 1e-3,
-            white: self.vrw_ug_rt_hz * UG_PER_RT_HZ,
-            flicker: self.bias_instability_ug * UG,
-            random_walk: self.acceleration_random_walk_ug_rt_h * UG / RT_HOUR_S,
+    pub fn from_channel(read: &ChannelFit, quantum: Option<f64>, covered: [f64; 2]) -> Self {
+        let [q, n, b, k] = terms_of(read, &ACCEL_UNITS, covered);
+        AccelNoise {
+            vrw_ug_rt_hz: n,
+            bias_instability_ug: b,
+            acceleration_random_walk_ug_rt_h: k,
+            velocity_quantization_mm_s: q,
+            quantum_mps: quantum,
+            fit_rms_z: read.fit.rms_z,
+            departures: read.departures.clone(),
         }
+    }
+
+    pub fn terms_si(&self) -> NoiseTerms {
+        si(
+            [
+                &self.velocity_quantization_mm_s,
+                &self.vrw_ug_rt_hz,
+                &self.bias_instability_ug,
+                &self.acceleration_random_walk_ug_rt_h,
+            ],
+            &ACCEL_UNITS,
+        )
     }
 
     /// The fitted Allan deviation at τ, µg.
@@ -110,16 +174,13 @@ impl AccelNoise {
     }
 }
 
-impl AccelNoise {
-    pub fn from_fit(fit: &TermFit) -> Self {
-        let t: &NoiseTerms = &fit.terms;
-        AccelNoise {
-            vrw_ug_rt_hz: t.white / UG_PER_RT_HZ,
-            bias_instability_ug: t.flicker / UG,
-            acceleration_random_walk_ug_rt_h: t.random_walk * RT_HOUR_S / UG,
-            velocity_quantization_mm_s: t.quantization * 1e3,
-            fit_rms_z: fit.rms_z,
-        }
+fn si(terms: [&Term; 4], units: &[(f64, &str); 4]) -> NoiseTerms {
+    let v: [f64; 4] = std::array::from_fn(|k| terms[k].model_value() * units[k].0);
+    NoiseTerms {
+        quantization: v[0],
+        white: v[1],
+        flicker: v[2],
+        random_walk: v[3],
     }
 }
 
@@ -218,31 +279,34 @@ impl NoiseReport {
             tau.len()
         );
         out.push_str(
-            "gyro   ARW deg/sqrt(h)   bias inst. deg/h   RRW deg/h/sqrt(h)   Q arcsec   fit rms z\n",
+            "gyro   ARW deg/sqrt(h)     bias inst. deg/h    RRW deg/h/sqrt(h)   Q arcsec     quantum arcsec  fit rms z\n",
         );
         for (axis, g) in self.gyro.iter() {
             out.push_str(&format!(
-                "  {axis}    {:>13.6}   {:>16.6}   {:>17.6}   {:>8.4}   {:>9.2}\n",
-                g.arw_deg_rt_h,
-                g.bias_instability_deg_h,
-                g.rate_random_walk_deg_h_rt_h,
-                g.angle_quantization_arcsec,
+                "  {axis}    {:<18}  {:<18}  {:<18}  {:<11}  {:<14}  {:>9.2}\n",
+                g.arw_deg_rt_h.cell(),
+                g.bias_instability_deg_h.cell(),
+                g.rate_random_walk_deg_h_rt_h.cell(),
+                g.angle_quantization_arcsec.cell(),
+                g.quantum_arcsec.map_or("-".into(), |q| format!("{q:.6}")),
                 g.fit_rms_z
             ));
         }
         out.push_str(
-            "accel  VRW ug/sqrt(Hz)   bias inst. ug      acc. RW ug/sqrt(h)  Q mm/s     fit rms z\n",
+            "accel  VRW ug/sqrt(Hz)     bias inst. ug       acc. RW ug/sqrt(h)  Q mm/s       quantum m/s     fit rms z\n",
         );
         for (axis, a) in self.accel.iter() {
             out.push_str(&format!(
-                "  {axis}    {:>13.4}   {:>16.4}   {:>17.4}   {:>8.5}   {:>9.2}\n",
-                a.vrw_ug_rt_hz,
-                a.bias_instability_ug,
-                a.acceleration_random_walk_ug_rt_h,
-                a.velocity_quantization_mm_s,
+                "  {axis}    {:<18}  {:<18}  {:<18}  {:<11}  {:<14}  {:>9.2}\n",
+                a.vrw_ug_rt_hz.cell(),
+                a.bias_instability_ug.cell(),
+                a.acceleration_random_walk_ug_rt_h.cell(),
+                a.velocity_quantization_mm_s.cell(),
+                a.quantum_mps.map_or("-".into(), |q| format!("{q:.6e}")),
                 a.fit_rms_z
             ));
         }
+        out.push_str("(v±s: resolved, 1-sigma; <b: not resolved, 95 % upper bound; =v: held from the quantum)\n");
         for w in &self.warnings {
             out.push_str(&format!("warning: {w}\n"));
         }
@@ -253,38 +317,58 @@ impl NoiseReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::noise::fit::{Estimate, TermFit};
 
-    fn fit_of(terms: NoiseTerms) -> TermFit {
-        TermFit {
-            terms,
-            edf: Vec::new(),
-            rms_z: 0.0,
-        }
-    }
-
-    /// The report's units and back give the fitted terms, so a plotted
-    /// model curve is the fit's own.
+    /// The report's units and back give the model's terms, so a plotted
+    /// model curve is the fit's own; a bound adds nothing to it.
     #[test]
     fn terms_round_trip_through_the_report_units() {
-        let terms = NoiseTerms {
-            quantization: 2e-6,
-            white: 3e-7,
-            flicker: 4e-8,
-            random_walk: 5e-9,
+        let read = ChannelFit {
+            fit: TermFit {
+                terms: NoiseTerms::default(),
+                estimates: [
+                    Estimate::Fixed { value: 2e-6 },
+                    Estimate::Resolved {
+                        value: 3e-7,
+                        sigma: 1e-8,
+                    },
+                    Estimate::Bound { upper: 4e-8 },
+                    Estimate::Resolved {
+                        value: 5e-9,
+                        sigma: 1e-9,
+                    },
+                ],
+                edf: Vec::new(),
+                rms_z: 0.0,
+            },
+            departures: Vec::new(),
+            used: Vec::new(),
+            bands: [[0.01, 1.0]; 4],
+            spoiled: [false; 4],
         };
         for back in [
-            GyroNoise::from_fit(&fit_of(terms)).terms_si(),
-            AccelNoise::from_fit(&fit_of(terms)).terms_si(),
+            GyroNoise::from_channel(&read, None, [0.01, 10.0]).terms_si(),
+            AccelNoise::from_channel(&read, None, [0.01, 10.0]).terms_si(),
         ] {
             for (a, b) in [
-                (back.quantization, terms.quantization),
-                (back.white, terms.white),
-                (back.flicker, terms.flicker),
-                (back.random_walk, terms.random_walk),
+                (back.quantization, 2e-6),
+                (back.white, 3e-7),
+                (back.random_walk, 5e-9),
             ] {
                 assert!((a / b - 1.0).abs() < 1e-12, "{a} against {b}");
             }
+            assert_eq!(back.flicker, 0.0);
         }
+        let g = GyroNoise::from_channel(&read, None, [0.01, 10.0]);
+        assert!(g
+            .bias_instability_deg_h
+            .text
+            .starts_with("not resolved: below"));
+        assert!(
+            g.bias_instability_deg_h.text.ends_with("at tau <= 10.0 s"),
+            "{}",
+            g.bias_instability_deg_h.text
+        );
         // White noise alone falls as 1/√τ.
         let white = NoiseTerms {
             white: 1.0,

@@ -23,53 +23,32 @@
 //!   own midpoint (`thermal_pieces`); see `params_over` for why the
 //!   midpoint is far below 1e-10 rad of the exact integral;
 //! - noise is drawn from a ChaCha8 stream seeded with `seed`: per record
-//!   three gyro then three accelerometer standard normal deviates.
+//!   three gyro then three accelerometer standard normal deviates;
+//! - a real sensor (SPEC §2a) adds, in this order, to each record: the
+//!   floor vibration inside the accelerometer channel, through (I + K_a)
+//!   (`vibration`); the white noise, over the record's actual interval;
+//!   the wandering biases (`wander`); then the pulse count of the whole
+//!   (`pulses`). Records are stamped by `stamps` (jitter, gaps); a lost
+//!   record is still made, so every state runs on through a gap.
 
 use nalgebra::{Matrix3, Vector3};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use serde::{Deserialize, Serialize};
 
+use super::pulses::PulseCounter;
 use super::scheme::Scheme;
+use super::stamps::Stamps;
 use super::trajectory::{Kinematics, Motion, Trajectory};
+use super::vibration::FloorVibration;
+use super::wander::{BiasMean, BiasWander};
 use crate::model::thermal::REFERENCE_C;
-use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::attitude::rotvec_to_dcm;
 use crate::nav::Site;
 use crate::record::Record;
 
-/// White sensor noise (SPEC §2).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Default)]
-pub struct Noise {
-    /// Gyro angle random walk, deg/√h.
-    #[serde(default)]
-    pub gyro_arw_deg_rt_h: f64,
-    /// Accelerometer velocity random walk, µg/√Hz.
-    #[serde(default)]
-    pub accel_vrw_ug_rt_hz: f64,
-}
-
-impl Noise {
-    /// The defaults of `sinscal simulate`: 0.0003 deg/√h, 5 µg/√Hz.
-    pub fn default_navigation_grade() -> Self {
-        Noise {
-            gyro_arw_deg_rt_h: 0.0003,
-            accel_vrw_ug_rt_hz: 5.0,
-        }
-    }
-
-    /// ARW in rad/√s.
-    pub fn arw_si(&self) -> f64 {
-        self.gyro_arw_deg_rt_h * DEG_PER_RT_H
-    }
-
-    /// VRW in (m/s)/√s.
-    pub fn vrw_si(&self) -> f64 {
-        self.accel_vrw_ug_rt_hz * UG_PER_RT_HZ
-    }
-}
+use super::sensor_noise::Noise;
 
 /// Everything a simulated run depends on.
 #[derive(Clone, Debug)]
@@ -112,8 +91,9 @@ pub enum SimError {
     Rate(f64),
     #[error("invalid effects: {0}")]
     Effects(String),
-    #[error("invalid noise: values must be finite and ≥ 0")]
-    Noise,
+    /// The message names the field.
+    #[error("invalid noise: {0}")]
+    Noise(String),
     #[error("invalid temperature: {0}")]
     Temperature(String),
 }
@@ -172,7 +152,6 @@ pub struct Simulator {
     params: ErrorParameters,
     effects: Effects,
     dt: f64,
-    rate: f64,
     n_records: u64,
     k: u64,
     rng: ChaCha8Rng,
@@ -187,6 +166,13 @@ pub struct Simulator {
     thermal: Option<ThermalTruth>,
     temperature: Option<TemperatureHistory>,
     hint: usize,
+    stamps: Stamps,
+    /// Records the logger loses (in gaps), and records written so far.
+    n_lost: u64,
+    written: u64,
+    wander: Option<BiasWander>,
+    vibration: Option<FloorVibration>,
+    pulses: Option<PulseCounter>,
 }
 
 /// Prepares the record stream of a configuration.
@@ -206,10 +192,7 @@ impl Simulator {
             h.validate()
                 .map_err(|e| SimError::Temperature(e.to_string()))?;
         }
-        let (arw, vrw) = (cfg.noise.gyro_arw_deg_rt_h, cfg.noise.accel_vrw_ug_rt_hz);
-        if !(arw.is_finite() && arw >= 0.0 && vrw.is_finite() && vrw >= 0.0) {
-            return Err(SimError::Noise);
-        }
+        cfg.noise.validate().map_err(SimError::Noise)?;
         let phi = Vector3::from(cfg.initial_attitude_error_deg).map(f64::to_radians);
         let traj = Trajectory::new(&cfg.scheme, &rotvec_to_dcm(&phi), &cfg.site)
             .map_err(SimError::Scheme)?;
@@ -218,11 +201,21 @@ impl Simulator {
         // multiple from losing its last record to rounding.
         let n_records = (traj.duration() * rate + 1e-9).floor() as u64;
         let drift = cfg.effects.bias_drift;
+        let noise = &cfg.noise;
+        let stamps = Stamps::new(rate, noise.time_jitter_pct, cfg.seed, &noise.gaps);
+        let [q_gyro, q_accel] = noise.quanta_si();
         Ok(Simulator {
+            n_lost: stamps.count_lost(n_records),
+            written: 0,
+            stamps,
+            wander: BiasWander::new(noise, cfg.seed, traj.duration(), dt),
+            vibration: noise
+                .vibration
+                .and_then(|v| FloorVibration::new(&v, cfg.seed, cfg.site.omega_ie_n(), dt)),
+            pulses: PulseCounter::new(q_gyro, q_accel),
             params: cfg.params,
             effects: cfg.effects,
             dt,
-            rate,
             n_records,
             k: 0,
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
@@ -245,9 +238,16 @@ impl Simulator {
         &self.traj
     }
 
-    /// Number of records the run holds.
+    /// Number of records the run holds (those lost in gaps left out).
     pub fn n_records(&self) -> u64 {
-        self.n_records
+        self.n_records - self.n_lost
+    }
+
+    /// The mean of each wandering bias over every record made so far, from
+    /// t = 0 (those lost in gaps included): after the last record, the
+    /// truth's `bias_mean_over_run`. `None` when the biases do not wander.
+    pub fn bias_mean_over_run(&self) -> Option<BiasMean> {
+        self.wander.as_ref().map(BiasWander::mean)
     }
 
     pub fn dt(&self) -> f64 {
@@ -418,11 +418,9 @@ impl Simulator {
         a
     }
 
-    /// The noise-free record k (1-based) from the integrals.
-    fn record(&mut self, k: u64) -> Record {
-        let (t_prev, t) = ((k - 1) as f64 / self.rate, k as f64 / self.rate);
-        let dt = self.dt;
-
+    /// The noise-free record over (t_prev, t], `dt` long (the nominal step
+    /// unless the stamps jitter), from the integrals.
+    fn record(&mut self, t_prev: f64, t: f64, dt: f64) -> Record {
         let mut dtheta = Vector3::zeros();
         let mut int_f = Vector3::zeros();
         let mut int_abs_omega = Vector3::zeros();
@@ -462,6 +460,9 @@ impl Simulator {
             for i in 0..3 {
                 dv[i] += i_ka.row(i).dot(&ai.a[i].transpose()) + b_a[i] * len + d_a[i] * ai.a_sq[i];
             }
+            if let Some(v) = &mut self.vibration {
+                dv += i_ka * v.integral_b(&self.traj, w[0], w[1]);
+            }
         }
         dv += self.drift_accel * (0.5 * (tb * tb - ta * ta));
 
@@ -494,26 +495,44 @@ impl Iterator for Simulator {
     type Item = Record;
 
     fn next(&mut self) -> Option<Record> {
-        if self.k >= self.n_records {
-            return None;
-        }
-        self.k += 1;
-        let mut r = self.record(self.k);
-        if self.sigma_gyro > 0.0 || self.sigma_accel > 0.0 {
-            for i in 0..3 {
-                let z: f64 = StandardNormal.sample(&mut self.rng);
-                r.dtheta[i] += self.sigma_gyro * z;
+        while self.k < self.n_records {
+            self.k += 1;
+            let (t_prev, t) = self.stamps.interval(self.k);
+            let jittered = self.stamps.jittered();
+            let dt = if jittered { t - t_prev } else { self.dt };
+            let mut r = self.record(t_prev, t, dt);
+            if self.sigma_gyro > 0.0 || self.sigma_accel > 0.0 {
+                // White noise over the record's own interval.
+                let scale = if jittered { (dt / self.dt).sqrt() } else { 1.0 };
+                for i in 0..3 {
+                    let z: f64 = StandardNormal.sample(&mut self.rng);
+                    r.dtheta[i] += self.sigma_gyro * scale * z;
+                }
+                for i in 0..3 {
+                    let z: f64 = StandardNormal.sample(&mut self.rng);
+                    r.dv[i] += self.sigma_accel * scale * z;
+                }
             }
-            for i in 0..3 {
-                let z: f64 = StandardNormal.sample(&mut self.rng);
-                r.dv[i] += self.sigma_accel * z;
+            if let Some(w) = &mut self.wander {
+                let drift = w.step(dt);
+                for i in 0..3 {
+                    r.dtheta[i] += drift[i];
+                    r.dv[i] += drift[3 + i];
+                }
+            }
+            if let Some(p) = &mut self.pulses {
+                p.count(&mut r);
+            }
+            if !self.stamps.lost(t) {
+                self.written += 1;
+                return Some(r);
             }
         }
-        Some(r)
+        None
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        let left = (self.n_records - self.k) as usize;
+        let left = (self.n_records() - self.written) as usize;
         (left, Some(left))
     }
 }

@@ -4,7 +4,7 @@
 
 use axum::extract::{Path, State};
 use axum::response::Html;
-use maud::{html, PreEscaped};
+use maud::{html, Markup, PreEscaped};
 
 use super::error::PageError;
 use super::format;
@@ -14,6 +14,7 @@ use super::session::Session;
 use crate::api::noise::analyse_noise;
 use crate::api::AppState;
 use crate::noise::report::Span;
+use crate::noise::{Term, TermStatus};
 use crate::plot::{Chart, Point, Scale, Series, Style};
 
 /// One colour per axis, shared by an axis's measured and fitted curves.
@@ -69,6 +70,22 @@ fn allan_chart<'a>(
     c
 }
 
+/// A term's cell: its value and σ, its bound, or its held value; the
+/// whole sentence on hover.
+fn term(t: &Term) -> Markup {
+    let mark = if t.spoiled_by_departure { " *" } else { "" };
+    let shown = match t.status {
+        TermStatus::Resolved => format!(
+            "{} ± {}",
+            format::sig(t.value.unwrap_or(0.0), 3),
+            format::sig(t.sigma.unwrap_or(0.0), 2)
+        ),
+        TermStatus::NotResolved => format!("< {}", format::sig(t.upper_bound.unwrap_or(0.0), 2)),
+        TermStatus::Fixed => format!("= {}", format::sig(t.value.unwrap_or(0.0), 3)),
+    };
+    html! { td.num title=(t.text) { (shown) (mark) } }
+}
+
 pub async fn page(
     State(st): State<AppState>,
     session: Session,
@@ -106,21 +123,28 @@ pub async fn page(
             ", " (format::sig(over.seconds_used, 4)) " s of data at " (over.sample_rate_hz) " Hz; τ up to " (format::sig(over.max_tau_s, 3)) " s. "
             (report.method)
         }
+        @if !report.warnings.is_empty() {
+            h2 { "Where the curve departs from the noise model" }
+            ul #noise-warnings { @for w in &report.warnings { li { (w) } } }
+        }
+        p.muted { "v ± σ: read from the curve (1-σ); < b: not resolved, 95 % upper bound over the τ the data covers; = v: held at q/√12 of the quantum found in the data; * read where the curve departs from the model." }
         h2 { "Gyros" }
         table #gyro-noise {
-            tr { th { "Axis" } th.num { "ARW (deg/√h)" } th.num { "Bias instability (deg/h)" } th.num { "Rate random walk (deg/h/√h)" } th.num { "Quantization (arcsec)" } th.num { "Fit rms z" } }
+            tr { th { "Axis" } th.num { "ARW (deg/√h)" } th.num { "Bias instability (deg/h)" } th.num { "Rate random walk (deg/h/√h)" } th.num { "Quantization (arcsec)" } th.num { "Quantum (arcsec)" } th.num { "Fit rms z" } }
             @for (axis, n) in report.gyro.iter() {
-                tr { td { (axis) } td.num { (format::sig(n.arw_deg_rt_h, 3)) } td.num { (format::sig(n.bias_instability_deg_h, 3)) }
-                     td.num { (format::sig(n.rate_random_walk_deg_h_rt_h, 3)) } td.num { (format::sig(n.angle_quantization_arcsec, 3)) } td.num { (format::sig(n.fit_rms_z, 2)) } }
+                tr { td { (axis) } (term(&n.arw_deg_rt_h)) (term(&n.bias_instability_deg_h))
+                     (term(&n.rate_random_walk_deg_h_rt_h)) (term(&n.angle_quantization_arcsec))
+                     td.num { (n.quantum_arcsec.map_or("—".into(), |q| format::sig(q, 4))) } td.num { (format::sig(n.fit_rms_z, 2)) } }
             }
         }
         figure #gyro-allan { (PreEscaped(gyro.to_svg())) }
         h2 { "Accelerometers" }
         table #accel-noise {
-            tr { th { "Axis" } th.num { "VRW (µg/√Hz)" } th.num { "Bias instability (µg)" } th.num { "Acceleration random walk (µg/√h)" } th.num { "Quantization (mm/s)" } th.num { "Fit rms z" } }
+            tr { th { "Axis" } th.num { "VRW (µg/√Hz)" } th.num { "Bias instability (µg)" } th.num { "Acceleration random walk (µg/√h)" } th.num { "Quantization (mm/s)" } th.num { "Quantum (m/s)" } th.num { "Fit rms z" } }
             @for (axis, n) in report.accel.iter() {
-                tr { td { (axis) } td.num { (format::sig(n.vrw_ug_rt_hz, 3)) } td.num { (format::sig(n.bias_instability_ug, 3)) }
-                     td.num { (format::sig(n.acceleration_random_walk_ug_rt_h, 3)) } td.num { (format::sig(n.velocity_quantization_mm_s, 3)) } td.num { (format::sig(n.fit_rms_z, 2)) } }
+                tr { td { (axis) } (term(&n.vrw_ug_rt_hz)) (term(&n.bias_instability_ug))
+                     (term(&n.acceleration_random_walk_ug_rt_h)) (term(&n.velocity_quantization_mm_s))
+                     td.num { (n.quantum_mps.map_or("—".into(), |q| format::sig(q, 4))) } td.num { (format::sig(n.fit_rms_z, 2)) } }
             }
         }
         figure #accel-allan { (PreEscaped(accel.to_svg())) }

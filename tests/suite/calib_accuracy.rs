@@ -81,10 +81,7 @@ fn reference_scenario_full_length_meets_table1_and_cross_check_agrees() {
             scheme: cfg.scheme.clone(),
             site: cfg.site,
             sample_rate_hz: 100.0,
-            noise: NoiseDensity {
-                gyro_arw_deg_rt_h: 0.0003,
-                accel_vrw_ug_rt_hz: 5.0,
-            },
+            noise: NoiseDensity::white(0.0003, 5.0),
             initial_attitude_error_deg: cfg.initial_attitude_error_deg,
         },
         &EstimateOptions::default(),
@@ -226,10 +223,7 @@ fn plan_agrees_with_independent_covariance_analysis() {
         scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
         site: Site::REFERENCE,
         sample_rate_hz: 100.0,
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: 0.0003,
-            accel_vrw_ug_rt_hz: 5.0,
-        },
+        noise: NoiseDensity::white(0.0003, 5.0),
         initial_attitude_error_deg: [0.0; 3],
     };
     let opts = EstimateOptions {

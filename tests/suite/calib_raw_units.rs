@@ -154,6 +154,7 @@ fn turns_at_any_rate_are_never_rest_and_every_dwell_is_found() {
             Noise {
                 gyro_arw_deg_rt_h: 0.003,
                 accel_vrw_ug_rt_hz: 50.0,
+                ..Noise::default()
             },
         ),
     ] {

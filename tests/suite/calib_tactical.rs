@@ -24,6 +24,7 @@ fn tactical_noise(seed: u64) -> Noise {
     Noise {
         gyro_arw_deg_rt_h: [0.001, 0.002, 0.003][(seed % 3) as usize],
         accel_vrw_ug_rt_hz: [10.0, 20.0, 30.0, 40.0, 50.0][(seed % 5) as usize],
+        ..Noise::default()
     }
 }
 
@@ -113,7 +114,7 @@ fn measured_noise_is_the_simulated_noise_when_turns_start_between_blocks() {
             scheme: Scheme::builtin("ten-position-9+9", DWELL_S).unwrap(),
             params: ErrorParameters::paper(),
             effects: Effects::none(),
-            noise,
+            noise: noise.clone(),
             initial_attitude_error_deg: [0.1, -0.1, 2.0],
             seed,
             thermal: None,

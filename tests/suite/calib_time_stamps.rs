@@ -12,12 +12,15 @@
 
 use std::sync::atomic::AtomicBool;
 
+use sinscal::calib::prescan::prescan;
 use sinscal::calib::sources::SliceSource;
-use sinscal::calib::{estimate, CalibError, CalibrationResult, EstimateOptions, RunInfo};
+use sinscal::calib::{
+    estimate, CalibError, CalibrationResult, DetectOptions, EstimateOptions, RunInfo,
+};
 use sinscal::diagnose::{DiagnoseOptions, Verdict};
 use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal::nav::Site;
-use sinscal::noise::{analyse, NoiseOptions};
+use sinscal::noise::{analyse, NoiseOptions, Span, Stretches};
 use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
 use sinscal::Record;
 
@@ -183,27 +186,43 @@ fn jittered_stamps_and_a_gap_at_rest_calibrate_as_the_even_run_and_a_gap_in_a_tu
     );
 }
 
-/// The white noise terms of the noise analysis over the dwells.
+/// The white noise terms of the noise analysis over the dwells the
+/// estimator's pre-scan finds (as `pipeline::noise_file` chooses them).
 fn white_noise(records: &[Record]) -> [f64; 6] {
-    let report = analyse(
+    let run = RunInfo {
+        site: Site::REFERENCE,
+        sample_rate_hz: RATE_HZ,
+    };
+    let cancel = AtomicBool::new(false);
+    let scan = prescan(
         &SliceSource(records),
-        &RunInfo {
-            site: Site::REFERENCE,
-            sample_rate_hz: RATE_HZ,
-        },
+        &run,
+        &DetectOptions::default(),
+        &cancel,
+    )
+    .unwrap();
+    let stretches = Stretches {
+        span: Span::Dwells,
+        windows: scan.dwells().map(|d| (d.t_start, d.t_end)).collect(),
+    };
+    let report = analyse(
+        records.iter().copied().map(Ok),
+        RATE_HZ,
+        &stretches,
         &NoiseOptions::default(),
-        &AtomicBool::new(false),
+        &cancel,
     )
     .unwrap();
     let (g, a) = (&report.gyro, &report.accel);
     [
-        g.x.arw_deg_rt_h,
-        g.y.arw_deg_rt_h,
-        g.z.arw_deg_rt_h,
-        a.x.vrw_ug_rt_hz,
-        a.y.vrw_ug_rt_hz,
-        a.z.vrw_ug_rt_hz,
+        &g.x.arw_deg_rt_h,
+        &g.y.arw_deg_rt_h,
+        &g.z.arw_deg_rt_h,
+        &a.x.vrw_ug_rt_hz,
+        &a.y.vrw_ug_rt_hz,
+        &a.z.vrw_ug_rt_hz,
     ]
+    .map(|t| t.value.unwrap_or_else(|| panic!("not a value: {}", t.text)))
 }
 
 /// The noise analysis reads jittered stamps and a gap at rest as it reads

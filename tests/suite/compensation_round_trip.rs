@@ -33,6 +33,7 @@ fn config(
         Noise {
             gyro_arw_deg_rt_h: ARW_DEG_RT_H,
             accel_vrw_ug_rt_hz: VRW_UG_RT_HZ,
+            ..Noise::default()
         }
     } else {
         Noise::default()

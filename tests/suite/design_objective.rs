@@ -63,10 +63,7 @@ fn compare(scheme: &Scheme, noise: NoiseDensity, attitude: [f64; 3], rate: f64) 
     worst
 }
 
-const NAV_GRADE: NoiseDensity = NoiseDensity {
-    gyro_arw_deg_rt_h: 0.0003,
-    accel_vrw_ug_rt_hz: 5.0,
-};
+const NAV_GRADE: NoiseDensity = NoiseDensity::white(0.0003, 5.0);
 
 #[test]
 fn the_objective_matches_plan_on_the_built_in_schemes() {
@@ -87,10 +84,7 @@ fn the_objective_matches_plan_on_the_built_in_schemes() {
 
 #[test]
 fn the_objective_matches_plan_for_navigation_axes_from_a_tilted_start() {
-    let noise = NoiseDensity {
-        gyro_arw_deg_rt_h: 0.003,
-        accel_vrw_ug_rt_hz: 50.0,
-    };
+    let noise = NoiseDensity::white(0.003, 50.0);
     let (rel, which) = compare(&nav_axis_scheme(), noise, [5.0, -3.0, 200.0], 20.0);
     eprintln!(
         "nav axes: largest difference {:.2} % ({which})",

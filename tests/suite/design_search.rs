@@ -15,10 +15,7 @@ use sinscal::nav::Site;
 fn tactical() -> DesignRequest {
     DesignRequest {
         target: Some(Target::table1().tightened(0.2)),
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: 0.001,
-            accel_vrw_ug_rt_hz: 10.0,
-        },
+        noise: NoiseDensity::white(0.001, 10.0),
         ..DesignRequest::default()
     }
 }

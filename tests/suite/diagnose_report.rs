@@ -211,10 +211,10 @@ fn thresholds_before_data_agree_with_what_a_run_reports() {
         scheme: clean.scheme.clone(),
         site: clean.site,
         sample_rate_hz: clean.sample_rate_hz,
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: clean.noise.gyro_arw_deg_rt_h,
-            accel_vrw_ug_rt_hz: clean.noise.accel_vrw_ug_rt_hz,
-        },
+        noise: NoiseDensity::white(
+            clean.noise.gyro_arw_deg_rt_h,
+            clean.noise.accel_vrw_ug_rt_hz,
+        ),
         initial_attitude_error_deg: clean.initial_attitude_error_deg,
     };
     let before =

@@ -57,7 +57,7 @@ fn clean_runs_pass(
 ) {
     let cfgs = seeds
         .clone()
-        .map(|seed| config(scheme(seed), Effects::none(), noise, rate, seed))
+        .map(|seed| config(scheme(seed), Effects::none(), noise.clone(), rate, seed))
         .collect();
     for (seed, c) in seeds.zip(checks(cfgs)) {
         eprintln!(

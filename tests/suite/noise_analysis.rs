@@ -16,12 +16,10 @@ use reqwest::StatusCode;
 use serde_json::Value;
 
 use common::*;
-use sinscal::calib::{CalibError, RecordSource, RunInfo};
 use sinscal::io::data::DataFormat;
 use sinscal::model::units::{DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
-use sinscal::nav::Site;
 use sinscal::noise::fit::FLICKER_FLOOR;
-use sinscal::noise::{analyse, NoiseOptions, Span};
+use sinscal::noise::{analyse, NoiseError, NoiseOptions, NoiseReport, Span, Stretches, Term};
 use sinscal::Record;
 
 /// √h in s^½.
@@ -32,7 +30,7 @@ const RT_HOUR_S: f64 = 60.0;
 /// spectra add up to h/f between the shortest and longest time, whose
 /// Allan variance is 2 ln 2 · s²/ln r (r the spacing ratio): B² = π s²/ln r
 /// makes its floor (2 ln 2/π) B².
-struct Flicker {
+pub(crate) struct Flicker {
     phi: Vec<f64>,
     drive: Vec<f64>,
     state: Vec<f64>,
@@ -49,7 +47,7 @@ fn flicker_variance(b: f64) -> f64 {
 }
 
 impl Flicker {
-    fn new(b: f64, dt: f64, rng: &mut ChaCha8Rng) -> Self {
+    pub(crate) fn new(b: f64, dt: f64, rng: &mut ChaCha8Rng) -> Self {
         let s = flicker_variance(b).sqrt();
         let phi: Vec<f64> = flicker_times().iter().map(|t| (-dt / t).exp()).collect();
         Flicker {
@@ -60,7 +58,7 @@ impl Flicker {
         }
     }
 
-    fn next(&mut self, rng: &mut ChaCha8Rng) -> f64 {
+    pub(crate) fn next(&mut self, rng: &mut ChaCha8Rng) -> f64 {
         let mut sum = 0.0;
         for i in 0..self.phi.len() {
             self.state[i] = self.phi[i] * self.state[i] + self.drive[i] * gauss(rng);
@@ -90,32 +88,38 @@ fn flicker_avar(b: f64, dt: f64, m: usize) -> f64 {
         .sum()
 }
 
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     StandardNormal.sample(rng)
 }
 
 /// The coefficients of each axis, SI (rad/s-based for gyros, m/s²-based
 /// for accelerometers): white density, flicker B, random-walk K.
-#[derive(Clone, Copy)]
-struct Axis {
-    white: f64,
-    flicker: f64,
-    random_walk: f64,
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Axis {
+    pub white: f64,
+    pub flicker: f64,
+    pub random_walk: f64,
 }
 
 /// A static run, regenerated identically on every read: each axis's rate
-/// is a constant (Earth rate, gravity) plus its noises.
-struct StaticRun {
-    axes: [Axis; 6],
-    rate_hz: f64,
-    records: usize,
-    seed: u64,
+/// is a constant (Earth rate, gravity) plus its noises, plus `extra(axis,
+/// t)`; with `quanta`, each record holds whole quanta of the accumulated
+/// increments and carries the remainder (SPEC §2a pulse outputs).
+pub(crate) struct StaticRun {
+    pub axes: [Axis; 6],
+    pub rate_hz: f64,
+    pub records: usize,
+    pub seed: u64,
+    pub quanta: Option<[f64; 6]>,
+    pub extra: fn(usize, f64) -> f64,
 }
 
-impl RecordSource for StaticRun {
-    fn records(
-        &self,
-    ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
+pub(crate) fn nothing(_: usize, _: f64) -> f64 {
+    0.0
+}
+
+impl StaticRun {
+    pub fn records(&self) -> impl Iterator<Item = Result<Record, NoiseError>> + '_ {
         let dt = 1.0 / self.rate_hz;
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let constant = [1.2e-5, 6.4e-5, 3.4e-5, 0.02, -0.03, 9.79];
@@ -125,23 +129,59 @@ impl RecordSource for StaticRun {
             .map(|a| Flicker::new(a.flicker, dt, &mut rng))
             .collect();
         let mut walk = [0.0; 6];
+        let mut total = [0.0; 6];
+        let mut counted = [0.0; 6];
         let axes = self.axes;
-        Ok(Box::new((1..=self.records).map(move |k| {
-            let mut rate = [0.0; 6];
+        (1..=self.records).map(move |k| {
+            let t = k as f64 * dt;
+            let mut u = [0.0; 6];
             for c in 0..6 {
                 walk[c] += axes[c].random_walk * dt.sqrt() * gauss(&mut rng);
-                rate[c] = constant[c]
+                let rate = constant[c]
                     + axes[c].white / dt.sqrt() * gauss(&mut rng)
                     + flicker[c].next(&mut rng)
-                    + walk[c];
+                    + walk[c]
+                    + (self.extra)(c, t);
+                u[c] = rate * dt;
+                if let Some(q) = self.quanta {
+                    total[c] += u[c];
+                    let n = (total[c] / q[c]).floor() - counted[c];
+                    counted[c] += n;
+                    u[c] = n * q[c];
+                }
             }
             Ok(Record {
-                t: k as f64 * dt,
-                dtheta: [rate[0] * dt, rate[1] * dt, rate[2] * dt],
-                dv: [rate[3] * dt, rate[4] * dt, rate[5] * dt],
+                t,
+                dtheta: [u[0], u[1], u[2]],
+                dv: [u[3], u[4], u[5]],
             })
-        })))
+        })
     }
+
+    /// The whole run analysed as one stretch.
+    pub fn analyse(&self) -> NoiseReport {
+        let stretches = Stretches {
+            span: Span::WholeRun,
+            windows: vec![(0.0, self.records as f64 / self.rate_hz)],
+        };
+        let opts = NoiseOptions {
+            span: Span::WholeRun,
+            ..NoiseOptions::default()
+        };
+        analyse(
+            self.records(),
+            self.rate_hz,
+            &stretches,
+            &opts,
+            &AtomicBool::new(false),
+        )
+        .unwrap()
+    }
+}
+
+/// A resolved term's value.
+pub(crate) fn value(t: &Term) -> f64 {
+    t.value.unwrap_or_else(|| panic!("not a value: {}", t.text))
 }
 
 fn within(what: &str, got: f64, truth: f64, tolerance: f64) {
@@ -189,16 +229,10 @@ fn terms_of_known_noise_are_identified_within_ten_percent() {
             rate_hz,
             records: (8.0 * 3600.0 * rate_hz) as usize,
             seed,
+            quanta: None,
+            extra: nothing,
         };
-        let info = RunInfo {
-            site: Site::REFERENCE,
-            sample_rate_hz: rate_hz,
-        };
-        let opts = NoiseOptions {
-            span: Span::WholeRun,
-            ..NoiseOptions::default()
-        };
-        let report = analyse(&run, &info, &opts, &AtomicBool::new(false)).unwrap();
+        let report = run.analyse();
         // Every record but the first, whose interval its stamp does not
         // give (SPEC §2a).
         assert_eq!(report.computed_over.records_used, run.records as u64 - 1);
@@ -225,40 +259,40 @@ fn terms_of_known_noise_are_identified_within_ten_percent() {
         );
         let (g, a) = (&report.gyro, &report.accel);
         for (name, got) in [
-            ("gyro x ARW", g.x.arw_deg_rt_h),
-            ("gyro y ARW", g.y.arw_deg_rt_h),
-            ("gyro z ARW", g.z.arw_deg_rt_h),
+            ("gyro x ARW", value(&g.x.arw_deg_rt_h)),
+            ("gyro y ARW", value(&g.y.arw_deg_rt_h)),
+            ("gyro z ARW", value(&g.z.arw_deg_rt_h)),
         ] {
             within(name, got, 0.0005, 0.10);
         }
         within(
             "gyro y RRW deg/h/sqrt(h)",
-            g.y.rate_random_walk_deg_h_rt_h,
+            value(&g.y.rate_random_walk_deg_h_rt_h),
             0.3,
             0.10,
         );
         within(
             "gyro z BI deg/h",
-            g.z.bias_instability_deg_h,
+            value(&g.z.bias_instability_deg_h),
             true_b(gyro_b) / DEG_PER_H,
             0.10,
         );
         for (name, got) in [
-            ("accel x VRW", a.x.vrw_ug_rt_hz),
-            ("accel y VRW", a.y.vrw_ug_rt_hz),
-            ("accel z VRW", a.z.vrw_ug_rt_hz),
+            ("accel x VRW", value(&a.x.vrw_ug_rt_hz)),
+            ("accel y VRW", value(&a.y.vrw_ug_rt_hz)),
+            ("accel z VRW", value(&a.z.vrw_ug_rt_hz)),
         ] {
             within(name, got, 10.0, 0.10);
         }
         within(
             "accel y BI ug",
-            a.y.bias_instability_ug,
+            value(&a.y.bias_instability_ug),
             true_b(accel_b) / UG,
             0.10,
         );
         within(
             "accel z acc. RW ug/sqrt(h)",
-            a.z.acceleration_random_walk_ug_rt_h,
+            value(&a.z.acceleration_random_walk_ug_rt_h),
             100.0,
             0.10,
         );
@@ -336,13 +370,17 @@ fn a_simulated_run_gives_back_its_arw_and_vrw() {
     for axis in ["x", "y", "z"] {
         within(
             &format!("simulated gyro {axis} ARW"),
-            report["gyro"][axis]["arw_deg_rt_h"].as_f64().unwrap(),
+            report["gyro"][axis]["arw_deg_rt_h"]["value"]
+                .as_f64()
+                .unwrap(),
             0.002,
             0.10,
         );
         within(
             &format!("simulated accel {axis} VRW"),
-            report["accel"][axis]["vrw_ug_rt_hz"].as_f64().unwrap(),
+            report["accel"][axis]["vrw_ug_rt_hz"]["value"]
+                .as_f64()
+                .unwrap(),
             20.0,
             0.10,
         );
@@ -386,13 +424,17 @@ async fn the_api_serves_the_noise_of_a_stored_run() {
     for axis in ["x", "y", "z"] {
         within(
             &format!("served gyro {axis} ARW"),
-            report["gyro"][axis]["arw_deg_rt_h"].as_f64().unwrap(),
+            report["gyro"][axis]["arw_deg_rt_h"]["value"]
+                .as_f64()
+                .unwrap(),
             0.0003,
             0.10,
         );
         within(
             &format!("served accel {axis} VRW"),
-            report["accel"][axis]["vrw_ug_rt_hz"].as_f64().unwrap(),
+            report["accel"][axis]["vrw_ug_rt_hz"]["value"]
+                .as_f64()
+                .unwrap(),
             5.0,
             0.10,
         );

@@ -32,10 +32,7 @@ fn planned(scheme: &Scheme, site: Site, attitude: [f64; 3]) -> Plan {
         scheme: scheme.clone(),
         site,
         sample_rate_hz: RATE_HZ,
-        noise: NoiseDensity {
-            gyro_arw_deg_rt_h: 0.0003,
-            accel_vrw_ug_rt_hz: 5.0,
-        },
+        noise: NoiseDensity::white(0.0003, 5.0),
         initial_attitude_error_deg: attitude,
     };
     plan(&input, &EstimateOptions::default()).unwrap()

@@ -26,6 +26,7 @@ pub fn tactical_grade() -> Noise {
     Noise {
         gyro_arw_deg_rt_h: 0.003,
         accel_vrw_ug_rt_hz: 50.0,
+        ..Noise::default()
     }
 }
 

@@ -1,0 +1,257 @@
+//! The noise model fitted to the run's own zero-velocity observations.
+//!
+//! What a real unit's raw outputs say about its noise is limited: a gyro
+//! that outputs 1″ pulses hides an ARW of 0.0003 deg/√h under its
+//! quantization at every τ a 600 s dwell offers, and a navigation-grade
+//! gyro's bias instability sits below its white noise there too. The
+//! zero-velocity observations see both plainly: a tilt that wanders makes
+//! the velocity curve within minutes. So the terms are chosen to maximise
+//! the likelihood of the pass's innovations, the parameters integrated
+//! out (`SystematicFilter::log_likelihood`), over the pass replayed from
+//! its trace (`replay`), starting from what the Allan curves said.
+//!
+//! The search is a Nelder–Mead simplex in the logarithm of each term,
+//! which follows the ridge that correlated terms make (a gyro's white
+//! noise and the fast end of its flicker bank trade against each other)
+//! where a coordinate search zigzags. It stops once the simplex's
+//! likelihoods agree within a fraction of a unit of ln L, a change of the
+//! model the data cannot tell apart. A wander term the likelihood drives
+//! below a hundredth of its start is dropped.
+
+use super::error::CalibError;
+use super::noise_model::{NoiseModel, TriadNoise};
+use super::replay::PassTrace;
+use super::walk::PassContext;
+
+/// The terms the fit adjusts, as factors on the start model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum FreeTerm {
+    GyroWhite,
+    AccelWhite,
+    GyroInstability,
+    AccelInstability,
+}
+
+impl FreeTerm {
+    /// What a run's zero-velocity observations settle: each triad's white
+    /// noise and bias instability. The bias random walk stays as the
+    /// Allan curve read it (zero where it did not resolve it): over one
+    /// run a random walk and the slow end of the flicker bank, which
+    /// reaches ten run lengths, are the same drift to the likelihood.
+    pub const SETTLED: [FreeTerm; 4] = [
+        FreeTerm::GyroWhite,
+        FreeTerm::AccelWhite,
+        FreeTerm::GyroInstability,
+        FreeTerm::AccelInstability,
+    ];
+
+    fn values(self, m: &mut NoiseModel) -> &mut [f64; 3] {
+        let triad: &mut TriadNoise = match self {
+            FreeTerm::GyroWhite | FreeTerm::GyroInstability => &mut m.gyro,
+            FreeTerm::AccelWhite | FreeTerm::AccelInstability => &mut m.accel,
+        };
+        match self {
+            FreeTerm::GyroWhite | FreeTerm::AccelWhite => &mut triad.white,
+            FreeTerm::GyroInstability | FreeTerm::AccelInstability => &mut triad.instability,
+        }
+    }
+
+    /// Where a term the Allan curves did not resolve starts: a
+    /// navigation-grade unit's size (the search moves it by orders of
+    /// magnitude if the run says so).
+    fn nominal(self) -> f64 {
+        use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
+        match self {
+            FreeTerm::GyroWhite => 0.0003 * DEG_PER_RT_H,
+            FreeTerm::AccelWhite => 5.0 * UG_PER_RT_HZ,
+            FreeTerm::GyroInstability => 0.001 * DEG_PER_H,
+            FreeTerm::AccelInstability => 2.0 * UG,
+        }
+    }
+
+    /// Whether the term may vanish (wander may; white noise never does).
+    fn may_vanish(self) -> bool {
+        !matches!(self, FreeTerm::GyroWhite | FreeTerm::AccelWhite)
+    }
+}
+
+/// The first simplex's steps from the start (natural log, downwards: the
+/// start's white densities are upper estimates).
+const SIMPLEX_STEP: f64 = 0.7;
+
+/// The search stops when the simplex's log-likelihoods agree within this
+/// (a change of the noise model the data cannot tell apart)...
+const VALUE_TOLERANCE: f64 = 0.5;
+
+/// ... or it is this small (natural log: 3 %).
+const SIZE_TOLERANCE: f64 = 0.03;
+
+/// The most likelihood evaluations the search spends.
+const MAX_EVALUATIONS: usize = 60;
+
+/// Windows merged into one for the likelihood: zero-velocity updates every
+/// 2 s instead of every second, at half the cost, which the noise terms'
+/// estimates hardly feel (their information comes from hundreds of
+/// thousands of seconds of rest).
+const DECIMATION: usize = 2;
+
+/// How far below its start a white density may go (natural log).
+const WHITE_FLOOR_LN: f64 = -9.2;
+
+/// A wander term this far below its start (natural log) is dropped.
+const VANISH_LN: f64 = -4.6;
+
+/// The fitted model and how the search went.
+#[derive(Clone, Debug)]
+pub(crate) struct NoiseFit {
+    pub model: NoiseModel,
+    pub evaluations: usize,
+}
+
+/// Fits `free` terms of `start` to the trace of a pass of `ctx` (whose
+/// effect states are scaled by `effect_scale`). Each term keeps its axes'
+/// ratios; a wander term that starts at zero is not freed.
+pub(crate) fn fit_noise(
+    ctx: &PassContext,
+    trace: &PassTrace,
+    effect_scale: &[f64],
+    start: &NoiseModel,
+    free: &[FreeTerm],
+) -> Result<NoiseFit, CalibError> {
+    let mut start = *start;
+    for t in free {
+        let v = t.values(&mut start);
+        if v.iter().all(|x| *x <= 0.0) {
+            *v = [t.nominal(); 3];
+        }
+    }
+    let start = &start;
+    let free: Vec<FreeTerm> = free.to_vec();
+    let model_at = |ln: &[f64]| {
+        let mut m = *start;
+        for (t, l) in free.iter().zip(ln) {
+            let f = if *l <= VANISH_LN && t.may_vanish() {
+                0.0
+            } else {
+                l.exp()
+            };
+            t.values(&mut m).iter_mut().for_each(|v| *v *= f);
+        }
+        m
+    };
+    let mut evaluations = 0;
+    let mut evaluate = |ln: &[f64]| -> Result<f64, CalibError> {
+        evaluations += 1;
+        let kf = ctx.filter_for(&model_at(ln), ctx.opts.zupt_sigma_mps, effect_scale);
+        trace.profile_log_likelihood(kf, DECIMATION)
+    };
+    let floor: Vec<f64> = free
+        .iter()
+        .map(|t| {
+            if t.may_vanish() {
+                VANISH_LN
+            } else {
+                WHITE_FLOOR_LN
+            }
+        })
+        .collect();
+    let clamp = |x: &mut [f64]| {
+        for (v, f) in x.iter_mut().zip(&floor) {
+            *v = v.max(*f);
+        }
+    };
+    let (ln, _) = nelder_mead(
+        |x: &[f64]| {
+            let mut x = x.to_vec();
+            clamp(&mut x);
+            evaluate(&x)
+        },
+        free.len(),
+    )?;
+    let mut ln = ln;
+    clamp(&mut ln);
+    Ok(NoiseFit {
+        model: model_at(&ln),
+        evaluations,
+    })
+}
+
+/// The maximum of `f` over R^n by Nelder–Mead from the origin: a simplex
+/// of steps [`SIMPLEX_STEP`] along each axis, reflected, expanded and
+/// contracted until its values agree within [`VALUE_TOLERANCE`] or its size
+/// falls below [`SIZE_TOLERANCE`], or [`MAX_EVALUATIONS`] are spent. It
+/// follows the ridges that correlated terms make (a gyro's white noise and
+/// the fast end of its flicker bank), where a coordinate search zigzags.
+fn nelder_mead(
+    mut f: impl FnMut(&[f64]) -> Result<f64, CalibError>,
+    n: usize,
+) -> Result<(Vec<f64>, f64), CalibError> {
+    let mut pts: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
+    let origin = vec![0.0; n];
+    pts.push((origin.clone(), f(&origin)?));
+    for i in 0..n {
+        let mut x = origin.clone();
+        x[i] = -SIMPLEX_STEP;
+        pts.push((x.clone(), f(&x)?));
+    }
+    let mut evaluations = n + 1;
+    let towards = |a: &[f64], b: &[f64], t: f64| -> Vec<f64> {
+        a.iter().zip(b).map(|(a, b)| a + t * (b - a)).collect()
+    };
+    while evaluations < MAX_EVALUATIONS {
+        pts.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let (best, worst) = (pts[0].1, pts[n].1);
+        let size = pts
+            .iter()
+            .skip(1)
+            .map(|(x, _)| {
+                x.iter()
+                    .zip(&pts[0].0)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0.0, f64::max)
+            })
+            .fold(0.0, f64::max);
+        if best - worst < VALUE_TOLERANCE || size < SIZE_TOLERANCE {
+            break;
+        }
+        let centroid: Vec<f64> = (0..n)
+            .map(|j| pts[..n].iter().map(|(x, _)| x[j]).sum::<f64>() / n as f64)
+            .collect();
+        let reflected = towards(&centroid, &pts[n].0, -1.0);
+        let fr = f(&reflected)?;
+        evaluations += 1;
+        if fr > best {
+            let expanded = towards(&centroid, &pts[n].0, -2.0);
+            let fe = f(&expanded)?;
+            evaluations += 1;
+            pts[n] = if fe > fr {
+                (expanded, fe)
+            } else {
+                (reflected, fr)
+            };
+        } else if fr > pts[n - 1].1 {
+            pts[n] = (reflected, fr);
+        } else {
+            let (base, fb) = if fr > worst {
+                (reflected, fr)
+            } else {
+                (pts[n].0.clone(), worst)
+            };
+            let contracted = towards(&centroid, &base, 0.5);
+            let fc = f(&contracted)?;
+            evaluations += 1;
+            if fc > fb {
+                pts[n] = (contracted, fc);
+            } else {
+                // Shrink towards the best.
+                for k in 1..=n {
+                    let x = towards(&pts[0].0, &pts[k].0, 0.5);
+                    pts[k] = (x.clone(), f(&x)?);
+                    evaluations += 1;
+                }
+            }
+        }
+    }
+    pts.sort_by(|a, b| b.1.total_cmp(&a.1));
+    Ok(pts.swap_remove(0))
+}
