@@ -17,6 +17,9 @@
 //! - `--dwell S`, `--rate HZ`: a shorter or slower run;
 //! - `--lever-arm MM`: every accelerometer MM mm off the reference
 //!   point along its own axis (SPEC §3), which the model check must flag;
+//! - `--vs-plan`: each run's σ against `plan`'s prediction for the same
+//!   scheme, start attitude and (simulated) noise model, the range of the
+//!   ratio reported;
 //! - `--per-seed`: each seed's figures;
 //! - `--vs-unquantized`: each run calibrated again without its pulses
 //!   (the same draws otherwise), and the largest σ ratio reported.
@@ -31,6 +34,7 @@
 
 use rand::{Rng, SeedableRng};
 
+use sinscal::calib::plan::{plan, PlanInput};
 use sinscal::calib::sources::calibrate_in_memory;
 use sinscal::calib::{EstimateOptions, NoiseDensity};
 use sinscal::model::effects::LeverArms;
@@ -108,6 +112,7 @@ fn main() {
     let mut worst = [0.0f64; 7];
     let mut worst_table1 = [0.0f64; 7];
     let mut sigma_ratio = 0.0f64;
+    let mut plan_ratio = [f64::INFINITY, 0.0f64];
     let mut sources = std::collections::BTreeMap::<String, usize>::new();
     let vs_unquantized = args.iter().any(|a| a == "--vs-unquantized");
     let mut inadequate = 0;
@@ -183,6 +188,20 @@ fn main() {
                 }
             }
         }
+        if args.iter().any(|a| a == "--vs-plan") {
+            let input = PlanInput {
+                scheme: cfg.scheme.clone(),
+                site: cfg.site,
+                sample_rate_hz: cfg.sample_rate_hz,
+                noise: density_of(&noise),
+                initial_attitude_error_deg: cfg.initial_attitude_error_deg,
+            };
+            let predicted = plan(&input, &EstimateOptions::default()).expect("a plan");
+            for info in PARAMETERS.iter() {
+                let r = res.parameters[info.name].sigma / predicted.parameters[info.name].sigma;
+                plan_ratio = [plan_ratio[0].min(r), plan_ratio[1].max(r)];
+            }
+        }
         let check = res.model_check.as_ref().expect("a model check");
         if !check.adequate {
             inadequate += 1;
@@ -243,6 +262,12 @@ fn main() {
     println!("noise model sources: {sources:?}");
     if vs_unquantized {
         println!("largest σ with pulses / σ without: {sigma_ratio:.3}");
+    }
+    if plan_ratio[1] > 0.0 {
+        println!(
+            "σ / plan's σ for the same noise model: {:.3}–{:.3}",
+            plan_ratio[0], plan_ratio[1]
+        );
     }
     for (k, g) in Group::ALL.iter().enumerate() {
         println!(

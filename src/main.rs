@@ -4,6 +4,7 @@ mod cli_calibrate;
 mod cli_compensate;
 mod cli_import;
 mod cli_noise;
+mod cli_sensor_noise;
 mod cli_simulate_sensors;
 mod cli_simulate_thermal;
 mod cli_thermal;
@@ -18,7 +19,7 @@ use sinscal::io::data::DataFormat;
 use std::sync::atomic::AtomicBool;
 
 use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::{EstimateOptions, NoiseDensity};
+use sinscal::calib::EstimateOptions;
 use sinscal::design::{design, Axes, DesignRequest, Target};
 use sinscal::diagnose::plot::gap_svg;
 use sinscal::diagnose::DiagnoseOptions;
@@ -124,12 +125,8 @@ struct PlanArgs {
     /// Dwell of a built-in scheme, s.
     #[arg(long)]
     dwell: Option<f64>,
-    /// Gyro angle random walk, deg/√h.
-    #[arg(long, default_value_t = 0.0003)]
-    arw: f64,
-    /// Accelerometer velocity random walk, µg/√Hz.
-    #[arg(long, default_value_t = 5.0)]
-    vrw: f64,
+    #[command(flatten)]
+    noise: cli_sensor_noise::SensorNoiseArgs,
     #[arg(long, default_value_t = 100.0)]
     rate: f64,
     #[arg(long, default_value_t = Site::REFERENCE.latitude_deg)]
@@ -164,12 +161,8 @@ struct DesignArgs {
     /// Predicted σ must be at most target / margin.
     #[arg(long, default_value_t = 3.0)]
     margin: f64,
-    /// Gyro angle random walk, deg/√h.
-    #[arg(long, default_value_t = 0.0003)]
-    arw: f64,
-    /// Accelerometer velocity random walk, µg/√Hz.
-    #[arg(long, default_value_t = 5.0)]
-    vrw: f64,
+    #[command(flatten)]
+    noise: cli_sensor_noise::SensorNoiseArgs,
     /// The axes the table turns the unit about.
     #[arg(long, value_enum, default_value_t = Axes::default())]
     axes: Axes,
@@ -394,7 +387,7 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
         scheme,
         site: Site::new(a.latitude, 0.0, 0.0),
         sample_rate_hz: a.rate,
-        noise: NoiseDensity::white(a.arw, a.vrw),
+        noise: a.noise.density()?,
         initial_attitude_error_deg: a.attitude_error.unwrap_or([0.0; 3]),
     };
     let opts = EstimateOptions {
@@ -414,8 +407,8 @@ fn run_plan(a: PlanArgs) -> anyhow::Result<()> {
         "scheme {} ({:.2} h), ARW {} deg/sqrt(h), VRW {} ug/sqrt(Hz): predicted 1-sigma",
         plan.scheme,
         plan.duration_s / 3600.0,
-        a.arw,
-        a.vrw
+        a.noise.arw,
+        a.noise.vrw
     );
     for info in sinscal::model::PARAMETERS.iter() {
         if let Some(p) = plan.parameters.get(info.name) {
@@ -455,7 +448,7 @@ fn run_design(a: DesignArgs) -> anyhow::Result<()> {
     };
     let req = DesignRequest {
         target: Some(target),
-        noise: NoiseDensity::white(a.arw, a.vrw),
+        noise: a.noise.density()?,
         axes: a.axes,
         rate_dps: a.rate_dps,
         accel_dps2: a.accel_dps2,

@@ -219,6 +219,50 @@ fn plan_prints_a_sigma_for_every_parameter() {
     );
 }
 
+/// `plan` with a real sensor's terms (SPEC §2a, `simulate`'s flag names)
+/// predicts what its wander costs: an accelerometer bias that wanders by
+/// 5 µg is known to no better than its wander allows, far worse than
+/// white noise alone lets it; a negative term is refused naming its flag.
+#[test]
+fn plan_predicts_a_real_sensors_sigma() {
+    let sigma_of = |text: &str, name: &str| -> f64 {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(name))
+            .unwrap_or_else(|| panic!("{text}"));
+        line.split_whitespace().nth(1).unwrap().parse().unwrap()
+    };
+    let base = [
+        "plan",
+        "--scheme",
+        "ten-position",
+        "--dwell",
+        "120",
+        "--rate",
+        "20",
+    ];
+    let white = stdout_of(sinscal().args(base));
+    let real = stdout_of(sinscal().args(base).args([
+        "--accel-bias-instability",
+        "5",
+        "--gyro-bias-instability",
+        "0.002",
+        "--accel-quantum",
+        "1e-4",
+    ]));
+    let (w, r) = (
+        sigma_of(&white, "accel_bias_x"),
+        sigma_of(&real, "accel_bias_x"),
+    );
+    assert!(
+        r > 2.0 * w,
+        "accel_bias_x σ {r} µg with wander, {w} µg white"
+    );
+    let refused = sinscal().args(base).arg("--gyro-rrw=-1").output().unwrap();
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("--gyro-rrw"));
+}
+
 #[test]
 fn simulate_refuses_half_given_options() {
     let output = sinscal()
