@@ -187,8 +187,11 @@ fn estimate_from(
         None => (opts.max_passes, 2, 0.05),
     };
     let span = share - (lo - 0.05);
-    let est = run_passes(ctx, head, budget, min_passes, false, (lo, span), progress)?;
+    // A model to be fitted needs the last pass's trace: every pass keeps
+    // one (each replaces the one before), so no pass is run only for it.
     let source = noise_source(ctx);
+    let traced = source == NoiseSource::Fitted;
+    let est = run_passes(ctx, head, budget, min_passes, traced, (lo, span), progress)?;
     let fitted_ctx;
     let (ctx, est, fit_evaluations) = if source == NoiseSource::Fitted {
         let range = (0.05 + 0.5 * share, 0.5 * share);
@@ -393,19 +396,18 @@ fn noise_source(ctx: &PassContext) -> NoiseSource {
     }
 }
 
-/// Fits the noise model to the innovations of one more pass from where
-/// the passes stand (`noise_fit`), then runs the passes again under it:
+/// Fits the noise model to the innovations of the last pass (`noise_fit`,
+/// over its trace), then runs the passes again under it:
 /// the context with the fitted model, the new estimate and the
 /// likelihood evaluations spent.
 fn refit_noise<'a>(
     ctx: &PassContext<'a>,
-    est: Estimate,
+    mut est: Estimate,
     (lo, span): (f64, f64),
     progress: &mut dyn FnMut(Progress),
 ) -> Result<(PassContext<'a>, Estimate, usize), CalibError> {
-    let mut est = run_passes(ctx, Some(est), 1, 1, true, (lo, 0.2 * span), progress)?;
     progress(Progress {
-        fraction: lo + 0.2 * span,
+        fraction: lo,
         stage: "fitting the noise model to the run".into(),
     });
     let trace = est
@@ -417,7 +419,7 @@ fn refit_noise<'a>(
     let fit = fit_noise(ctx, &trace, &scale, &ctx.noise, &FreeTerm::SETTLED)?;
     drop(trace);
     let fitted = ctx.with_noise(fit.model);
-    let range = (lo + 0.4 * span, 0.6 * span);
+    let range = (lo + 0.2 * span, 0.8 * span);
     let est = run_passes(
         &fitted,
         Some(est),
