@@ -102,7 +102,7 @@ fn refused(gap: &Gap, segment: Option<&RunSegment>) -> CalibError {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     fn segment(kind: SegmentKind, t_start: f64, t_end: f64) -> RunSegment {
@@ -117,7 +117,9 @@ mod tests {
         }
     }
 
-    fn segments() -> Vec<RunSegment> {
+    /// A dwell, a turn and a dwell; each dwell's mean output (1e-5, 2e-5,
+    /// 3e-5) rad/s and (0.1, 0.2, 9.8) m/s².
+    pub(in crate::calib) fn segments() -> Vec<RunSegment> {
         vec![
             segment(SegmentKind::Dwell, 0.0, 30.0),
             segment(SegmentKind::Motion, 30.0, 40.0),

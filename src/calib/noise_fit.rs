@@ -139,9 +139,7 @@ pub(crate) fn fit_noise(
         }
         m
     };
-    let mut evaluations = 0;
-    let mut evaluate = |ln: &[f64]| -> Result<f64, CalibError> {
-        evaluations += 1;
+    let evaluate = |ln: &[f64]| -> Result<f64, CalibError> {
         let kf = ctx.filter_for(&model_at(ln), ctx.opts.zupt_sigma_mps, effect_scale);
         trace.profile_log_likelihood(kf, DECIMATION)
     };
@@ -160,7 +158,7 @@ pub(crate) fn fit_noise(
             *v = v.max(*f);
         }
     };
-    let (ln, _) = nelder_mead(
+    let (mut ln, evaluations) = nelder_mead(
         |x: &[f64]| {
             let mut x = x.to_vec();
             clamp(&mut x);
@@ -168,7 +166,6 @@ pub(crate) fn fit_noise(
         },
         free.len(),
     )?;
-    let mut ln = ln;
     clamp(&mut ln);
     Ok(NoiseFit {
         model: model_at(&ln),
@@ -182,10 +179,11 @@ pub(crate) fn fit_noise(
 /// falls below [`SIZE_TOLERANCE`], or [`MAX_EVALUATIONS`] are spent. It
 /// follows the ridges that correlated terms make (a gyro's white noise and
 /// the fast end of its flicker bank), where a coordinate search zigzags.
+/// Returns the best point and the evaluations spent.
 fn nelder_mead(
     mut f: impl FnMut(&[f64]) -> Result<f64, CalibError>,
     n: usize,
-) -> Result<(Vec<f64>, f64), CalibError> {
+) -> Result<(Vec<f64>, usize), CalibError> {
     let mut pts: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
     let origin = vec![0.0; n];
     pts.push((origin.clone(), f(&origin)?));
@@ -253,5 +251,5 @@ fn nelder_mead(
         }
     }
     pts.sort_by(|a, b| b.1.total_cmp(&a.1));
-    Ok(pts.swap_remove(0))
+    Ok((pts.swap_remove(0).0, evaluations))
 }

@@ -205,27 +205,9 @@ impl Iterator for TimedRecords<'_> {
 mod tests {
     use super::*;
     use crate::calib::gaps::bridge_gaps;
+    use crate::calib::gaps::tests::segments;
     use crate::calib::segment::StartActivity;
     use crate::calib::sources::SliceSource;
-
-    /// A dwell, a turn and a dwell; the second dwell's mean output
-    /// (1e-5, 2e-5, 3e-5) rad/s and (0.1, 0.2, 9.8) m/s².
-    fn segments() -> Vec<RunSegment> {
-        let segment = |kind, t_start, t_end| RunSegment {
-            kind,
-            t_start,
-            t_end,
-            mean_omega_b: [1e-5, 2e-5, 3e-5],
-            mean_f_b: [0.1, 0.2, 9.8],
-            rotation_b: None,
-            peak_rate_dps: None,
-        };
-        vec![
-            segment(SegmentKind::Dwell, 0.0, 30.0),
-            segment(SegmentKind::Motion, 30.0, 40.0),
-            segment(SegmentKind::Dwell, 40.0, 70.0),
-        ]
-    }
 
     #[test]
     fn a_bridged_gap_is_filled_with_the_dwells_mean_output_through_the_record_after_it() {
