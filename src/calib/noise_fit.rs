@@ -17,6 +17,15 @@
 //! likelihoods agree within a fraction of a unit of ln L, a change of the
 //! model the data cannot tell apart. A wander term the likelihood drives
 //! below a hundredth of its start is dropped.
+//!
+//! A flat likelihood is no evidence of wander: where the data cannot tell
+//! a bias instability from none, the search stops wherever the simplex
+//! lies, and a term kept there widens every σ for nothing (a pulsed unit
+//! without any wander kept 0.0002 deg/h and reported σ 1.8 times its
+//! own). So each wander term must earn its place: it is dropped unless
+//! the likelihood falls by more than [`KEEP_WANDER_LN_L`] without it, a
+//! likelihood-ratio test at 1 % (the term sits on the boundary of its
+//! range, so the statistic is half χ²₀ and half χ²₁).
 
 use super::error::CalibError;
 use super::noise_model::{NoiseModel, TriadNoise};
@@ -81,13 +90,13 @@ const SIMPLEX_STEP: f64 = 0.7;
 
 /// The search stops when the simplex's log-likelihoods agree within this
 /// (a change of the noise model the data cannot tell apart)...
-const VALUE_TOLERANCE: f64 = 0.5;
+const VALUE_TOLERANCE: f64 = 0.05;
 
 /// ... or it is this small (natural log: 3 %).
 const SIZE_TOLERANCE: f64 = 0.03;
 
 /// The most likelihood evaluations the search spends.
-const MAX_EVALUATIONS: usize = 60;
+const MAX_EVALUATIONS: usize = 100;
 
 /// Windows merged into one for the likelihood: zero-velocity updates every
 /// 2 s instead of every second, at half the cost, which the noise terms'
@@ -100,6 +109,10 @@ const WHITE_FLOOR_LN: f64 = -9.2;
 
 /// A wander term this far below its start (natural log) is dropped.
 const VANISH_LN: f64 = -4.6;
+
+/// The fall of ln L without a wander term above which the term is kept:
+/// half the 98 % point of χ²₁ (5.41), the 1 % level of the boundary test.
+const KEEP_WANDER_LN_L: f64 = 2.71;
 
 /// The fitted model and how the search went.
 #[derive(Clone, Debug)]
@@ -158,38 +171,95 @@ pub(crate) fn fit_noise(
             *v = v.max(*f);
         }
     };
-    let (mut ln, evaluations) = nelder_mead(
-        |x: &[f64]| {
-            let mut x = x.to_vec();
+    let search = |x0: &[f64], moving: &[bool]| {
+        nelder_mead(
+            |y: &[f64]| {
+                let mut x = x0.to_vec();
+                let mut y = y.iter();
+                for (v, _) in x.iter_mut().zip(moving).filter(|(_, m)| **m) {
+                    *v = *y.next().expect("one value per moving term");
+                }
+                clamp(&mut x);
+                evaluate(&x)
+            },
+            &x0.iter()
+                .zip(moving)
+                .filter(|(_, m)| **m)
+                .map(|(v, _)| *v)
+                .collect::<Vec<_>>(),
+        )
+        .map(|(y, value, n)| {
+            let mut x = x0.to_vec();
+            let mut y = y.into_iter();
+            for (v, _) in x.iter_mut().zip(moving).filter(|(_, m)| **m) {
+                *v = y.next().expect("one value per moving term");
+            }
             clamp(&mut x);
-            evaluate(&x)
-        },
-        free.len(),
-    )?;
-    clamp(&mut ln);
+            (x, value, n)
+        })
+    };
+    // The white densities alone first, every wander term at zero: the
+    // model without wander that the full one must beat.
+    let wander: Vec<bool> = free.iter().map(|t| t.may_vanish()).collect();
+    let white: Vec<bool> = wander.iter().map(|w| !w).collect();
+    let x0: Vec<f64> = wander
+        .iter()
+        .map(|w| if *w { VANISH_LN } else { 0.0 })
+        .collect();
+    let (still, still_value, mut evaluations) = search(&x0, &white)?;
+    if !wander.contains(&true) {
+        return Ok(NoiseFit {
+            model: model_at(&still),
+            evaluations,
+        });
+    }
+    // Then every term, the wander from its start.
+    let x1: Vec<f64> = still
+        .iter()
+        .zip(&wander)
+        .map(|(v, w)| if *w { 0.0 } else { *v })
+        .collect();
+    let (mut ln, mut best, n) = search(&x1, &vec![true; free.len()])?;
+    evaluations += n;
+    if best - still_value < KEEP_WANDER_LN_L {
+        (ln, best) = (still, still_value);
+    }
+    // A triad whose wander the other explains as well is left still.
+    for (k, w) in wander.iter().enumerate() {
+        if !*w || ln[k] <= VANISH_LN {
+            continue;
+        }
+        let mut without = ln.clone();
+        without[k] = VANISH_LN;
+        let value = evaluate(&without)?;
+        evaluations += 1;
+        if best - value < KEEP_WANDER_LN_L {
+            (ln, best) = (without, value.max(best));
+        }
+    }
     Ok(NoiseFit {
         model: model_at(&ln),
         evaluations,
     })
 }
 
-/// The maximum of `f` over R^n by Nelder–Mead from the origin: a simplex
-/// of steps [`SIMPLEX_STEP`] along each axis, reflected, expanded and
+/// The maximum of `f` over R^n by Nelder–Mead from `origin`: a simplex
+/// of steps [`SIMPLEX_STEP`] down each axis, reflected, expanded and
 /// contracted until its values agree within [`VALUE_TOLERANCE`] or its size
 /// falls below [`SIZE_TOLERANCE`], or [`MAX_EVALUATIONS`] are spent. It
 /// follows the ridges that correlated terms make (a gyro's white noise and
 /// the fast end of its flicker bank), where a coordinate search zigzags.
-/// Returns the best point and the evaluations spent.
+/// Returns the best point, its value and the evaluations spent.
 fn nelder_mead(
     mut f: impl FnMut(&[f64]) -> Result<f64, CalibError>,
-    n: usize,
-) -> Result<(Vec<f64>, usize), CalibError> {
+    origin: &[f64],
+) -> Result<(Vec<f64>, f64, usize), CalibError> {
+    let n = origin.len();
     let mut pts: Vec<(Vec<f64>, f64)> = Vec::with_capacity(n + 1);
-    let origin = vec![0.0; n];
-    pts.push((origin.clone(), f(&origin)?));
+    pts.push((origin.to_vec(), f(origin)?));
     for i in 0..n {
-        let mut x = origin.clone();
-        x[i] = -SIMPLEX_STEP;
+        let mut x = origin.to_vec();
+        x[i] -= SIMPLEX_STEP;
         pts.push((x.clone(), f(&x)?));
     }
     let mut evaluations = n + 1;
@@ -251,5 +321,6 @@ fn nelder_mead(
         }
     }
     pts.sort_by(|a, b| b.1.total_cmp(&a.1));
-    Ok((pts.swap_remove(0).0, evaluations))
+    let (x, value) = pts.swap_remove(0);
+    Ok((x, value, evaluations))
 }
