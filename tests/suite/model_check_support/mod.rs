@@ -30,6 +30,29 @@ pub fn tactical_grade() -> Noise {
     }
 }
 
+/// A real navigation-grade unit (SPEC §2a) drawn from `seed`: 1″ and
+/// 1e-4 m/s pulses, bias instability 0.0005–0.003 deg/h and 1–5 µg, rate
+/// random walk 0.0001–0.0005 deg/h/√h and 1–3 µg/√h (each log-uniform),
+/// 30 µg of floor vibration over 2–9 Hz, on the white noise of
+/// [`navigation_grade`].
+pub fn real_navigation_grade(seed: u64) -> Noise {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7000 + seed);
+    let mut log_uniform = |lo: f64, hi: f64| (lo.ln() + rng.gen::<f64>() * (hi / lo).ln()).exp();
+    let mut n = navigation_grade();
+    n.gyro_quantum_arcsec = 1.0;
+    n.accel_quantum_mps = 1e-4;
+    n.gyro_bias_instability_deg_h = log_uniform(0.0005, 0.003);
+    n.accel_bias_instability_ug = log_uniform(1.0, 5.0);
+    n.gyro_rrw_deg_h_rt_h = log_uniform(0.0001, 0.0005);
+    n.accel_rw_ug_rt_h = log_uniform(1.0, 3.0);
+    n.vibration = Some(sinscal::sim::Vibration {
+        rms_ug: 30.0,
+        band_hz: [2.0, 9.0],
+    });
+    n
+}
+
 /// The 9+9 scheme turned by hand (SPEC §4): fast S-shaped flips about
 /// axes a few degrees off, the unit lifted and set down elsewhere.
 pub fn nine_plus_nine_by_hand(dwell_s: f64, seed: u64) -> Scheme {
