@@ -8,7 +8,8 @@
 //! `--real` gives every run a real unit's noise (SPEC §2a, drawn per seed:
 //! `real_navigation_grade`), under the noise model the calibration
 //! measures and fits; `--first K` starts the clean seeds at K (to split
-//! a long count between processes);
+//! a long count between processes); `--size K` runs the effects at K
+//! times their low end only;
 //! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone;
 //! `--by-hand` turns every scheme by hand (SPEC §4 flips drawn from the
 //! seed), e.g. `-- --by-hand --dwell 300 --rate 50 --effects 0` for the
@@ -73,16 +74,28 @@ fn main() {
     let (mut sum_ratio, mut sum_ratio2, mut worst_z) = (0.0, 0.0, 0.0f64);
     let mut worst_ratio = 0.0f64;
     for seed in first..first + clean {
-        let c = check(&config(
+        let noise = noise_of(seed);
+        let r = calibrate(&config(
             as_run(&nine_plus_nine(dwell), seed),
             Effects::none(),
-            noise_of(seed),
+            noise.clone(),
             rate,
             seed,
         ));
+        let c = r.model_check.expect("the filter makes a model check");
         if !c.adequate {
             flagged += 1;
             println!("  clean seed {seed} flagged: {}", c.summary);
+            if real {
+                println!(
+                    "    truth B {:.4} deg/h {:.2} µg, K {:.5} deg/h/√h {:.2} µg/√h; fitted {:?}",
+                    noise.gyro_bias_instability_deg_h,
+                    noise.accel_bias_instability_ug,
+                    noise.gyro_rrw_deg_h_rt_h,
+                    noise.accel_rw_ug_rt_h,
+                    r.noise_model.map(|m| m.model)
+                );
+            }
         }
         // (χ² − dof)/√(2 dof) is N(0, 1) under the model.
         let r = (c.statistic - c.dof as f64) / (2.0 * c.dof as f64).sqrt();
@@ -106,7 +119,11 @@ fn main() {
     }
     println!("| effect | size | flagged | min χ²/threshold | min largest |z| |");
     println!("|---|---|---|---|---|");
-    for k in [1.0, 2.0] {
+    let sizes = match flag("--size") {
+        Some(k) => vec![k],
+        None => vec![1.0, 2.0],
+    };
+    for k in sizes {
         for case in low_end_effects(k, dwell) {
             let mut hits = 0;
             let (mut min_ratio, mut min_z) = (f64::INFINITY, f64::INFINITY);

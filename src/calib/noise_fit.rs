@@ -39,29 +39,36 @@ pub(crate) enum FreeTerm {
     AccelWhite,
     GyroInstability,
     AccelInstability,
+    GyroRandomWalk,
+    AccelRandomWalk,
 }
 
 impl FreeTerm {
     /// What a run's zero-velocity observations settle: each triad's white
-    /// noise and bias instability. The bias random walk stays as the
-    /// Allan curve read it (zero where it did not resolve it): over one
-    /// run a random walk and the slow end of the flicker bank, which
-    /// reaches ten run lengths, are the same drift to the likelihood.
-    pub const SETTLED: [FreeTerm; 4] = [
+    /// noise, bias instability and bias random walk. The random walk is
+    /// its own term: the flicker bank's amplitude is held by its fast end,
+    /// so its slow end cannot stand in for a walk (a unit with K = 2.2
+    /// µg/√h and B = 1 µg, fitted without K, drifted 1.5 µg in its last
+    /// dwell at 5.6σ).
+    pub const SETTLED: [FreeTerm; 6] = [
         FreeTerm::GyroWhite,
         FreeTerm::AccelWhite,
         FreeTerm::GyroInstability,
         FreeTerm::AccelInstability,
+        FreeTerm::GyroRandomWalk,
+        FreeTerm::AccelRandomWalk,
     ];
 
     fn values(self, m: &mut NoiseModel) -> &mut [f64; 3] {
+        use FreeTerm::*;
         let triad: &mut TriadNoise = match self {
-            FreeTerm::GyroWhite | FreeTerm::GyroInstability => &mut m.gyro,
-            FreeTerm::AccelWhite | FreeTerm::AccelInstability => &mut m.accel,
+            GyroWhite | GyroInstability | GyroRandomWalk => &mut m.gyro,
+            AccelWhite | AccelInstability | AccelRandomWalk => &mut m.accel,
         };
         match self {
-            FreeTerm::GyroWhite | FreeTerm::AccelWhite => &mut triad.white,
-            FreeTerm::GyroInstability | FreeTerm::AccelInstability => &mut triad.instability,
+            GyroWhite | AccelWhite => &mut triad.white,
+            GyroInstability | AccelInstability => &mut triad.instability,
+            GyroRandomWalk | AccelRandomWalk => &mut triad.random_walk,
         }
     }
 
@@ -69,12 +76,14 @@ impl FreeTerm {
     /// navigation-grade unit's size (the search moves it by orders of
     /// magnitude if the run says so).
     fn nominal(self) -> f64 {
-        use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
+        use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
         match self {
             FreeTerm::GyroWhite => 0.0003 * DEG_PER_RT_H,
             FreeTerm::AccelWhite => 5.0 * UG_PER_RT_HZ,
             FreeTerm::GyroInstability => 0.001 * DEG_PER_H,
             FreeTerm::AccelInstability => 2.0 * UG,
+            FreeTerm::GyroRandomWalk => 0.0003 * DEG_PER_H / HOUR.sqrt(),
+            FreeTerm::AccelRandomWalk => 2.0 * UG / HOUR.sqrt(),
         }
     }
 
