@@ -14,18 +14,21 @@
 //! which follows the ridge that correlated terms make (a gyro's white
 //! noise and the fast end of its flicker bank trade against each other)
 //! where a coordinate search zigzags. It stops once the simplex's
-//! likelihoods agree within a fraction of a unit of ln L, a change of the
-//! model the data cannot tell apart. A wander term the likelihood drives
-//! below a hundredth of its start is dropped.
+//! likelihoods agree within a twentieth of a unit of ln L, a change of
+//! the model the data cannot tell apart. It runs twice: the white
+//! densities alone without wander (the still model), then every term. A
+//! wander term the likelihood drives below a hundredth of its start is
+//! dropped.
 //!
 //! A flat likelihood is no evidence of wander: where the data cannot tell
 //! a bias instability from none, the search stops wherever the simplex
 //! lies, and a term kept there widens every σ for nothing (a pulsed unit
 //! without any wander kept 0.0002 deg/h and reported σ 1.8 times its
-//! own). So each wander term must earn its place: it is dropped unless
-//! the likelihood falls by more than [`KEEP_WANDER_LN_L`] without it, a
-//! likelihood-ratio test at 1 % (the term sits on the boundary of its
-//! range, so the statistic is half χ²₀ and half χ²₁).
+//! own). So wander must earn its place: the whole of it must beat the
+//! still model, and then each term is dropped unless the likelihood falls
+//! by more than [`KEEP_WANDER_LN_L`] without it, a likelihood-ratio test
+//! at 1 % (the term sits on the boundary of its range, so the statistic
+//! is half χ²₀ and half χ²₁).
 
 use super::error::CalibError;
 use super::noise_model::{NoiseModel, TriadNoise};
