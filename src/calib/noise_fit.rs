@@ -135,7 +135,8 @@ pub(crate) struct NoiseFit {
 
 /// Fits `free` terms of `start` to the trace of a pass of `ctx` (whose
 /// effect states are scaled by `effect_scale`). Each term keeps its axes'
-/// ratios; a wander term that starts at zero is not freed.
+/// ratios; a term that starts at zero on every axis starts at its
+/// [`FreeTerm::nominal`] size.
 pub(crate) fn fit_noise(
     ctx: &PassContext,
     trace: &PassTrace,
@@ -150,65 +151,13 @@ pub(crate) fn fit_noise(
             *v = [t.nominal(); 3];
         }
     }
-    let start = &start;
-    let free: Vec<FreeTerm> = free.to_vec();
-    let model_at = |ln: &[f64]| {
-        let mut m = *start;
-        for (t, l) in free.iter().zip(ln) {
-            let f = if *l <= VANISH_LN && t.may_vanish() {
-                0.0
-            } else {
-                l.exp()
-            };
-            t.values(&mut m).iter_mut().for_each(|v| *v *= f);
-        }
-        m
+    let space = LogSpace {
+        start,
+        free: free.to_vec(),
     };
     let evaluate = |ln: &[f64]| -> Result<f64, CalibError> {
-        let kf = ctx.filter_for(&model_at(ln), ctx.opts.zupt_sigma_mps, effect_scale);
+        let kf = ctx.filter_for(&space.model_at(ln), ctx.opts.zupt_sigma_mps, effect_scale);
         trace.profile_log_likelihood(kf, DECIMATION)
-    };
-    let floor: Vec<f64> = free
-        .iter()
-        .map(|t| {
-            if t.may_vanish() {
-                VANISH_LN
-            } else {
-                WHITE_FLOOR_LN
-            }
-        })
-        .collect();
-    let clamp = |x: &mut [f64]| {
-        for (v, f) in x.iter_mut().zip(&floor) {
-            *v = v.max(*f);
-        }
-    };
-    let search = |x0: &[f64], moving: &[bool]| {
-        nelder_mead(
-            |y: &[f64]| {
-                let mut x = x0.to_vec();
-                let mut y = y.iter();
-                for (v, _) in x.iter_mut().zip(moving).filter(|(_, m)| **m) {
-                    *v = *y.next().expect("one value per moving term");
-                }
-                clamp(&mut x);
-                evaluate(&x)
-            },
-            &x0.iter()
-                .zip(moving)
-                .filter(|(_, m)| **m)
-                .map(|(v, _)| *v)
-                .collect::<Vec<_>>(),
-        )
-        .map(|(y, value, n)| {
-            let mut x = x0.to_vec();
-            let mut y = y.into_iter();
-            for (v, _) in x.iter_mut().zip(moving).filter(|(_, m)| **m) {
-                *v = y.next().expect("one value per moving term");
-            }
-            clamp(&mut x);
-            (x, value, n)
-        })
     };
     // The white densities alone first, every wander term at zero: the
     // model without wander that the full one must beat.
@@ -218,10 +167,10 @@ pub(crate) fn fit_noise(
         .iter()
         .map(|w| if *w { VANISH_LN } else { 0.0 })
         .collect();
-    let (still, still_value, mut evaluations) = search(&x0, &white)?;
+    let (still, still_value, mut evaluations) = space.search(&evaluate, &x0, &white)?;
     if !wander.contains(&true) {
         return Ok(NoiseFit {
-            model: model_at(&still),
+            model: space.model_at(&still),
             evaluations,
         });
     }
@@ -231,12 +180,13 @@ pub(crate) fn fit_noise(
         .zip(&wander)
         .map(|(v, w)| if *w { 0.0 } else { *v })
         .collect();
-    let (mut ln, mut best, n) = search(&x1, &vec![true; free.len()])?;
+    let (mut ln, mut best, n) = space.search(&evaluate, &x1, &vec![true; free.len()])?;
     evaluations += n;
     if best - still_value < KEEP_WANDER_LN_L {
         (ln, best) = (still, still_value);
     }
-    // A triad whose wander the other explains as well is left still.
+    // Each wander term in turn, those dropped staying dropped: a term
+    // another explains as well goes.
     for (k, w) in wander.iter().enumerate() {
         if !*w || ln[k] <= VANISH_LN {
             continue;
@@ -250,9 +200,71 @@ pub(crate) fn fit_noise(
         }
     }
     Ok(NoiseFit {
-        model: model_at(&ln),
+        model: space.model_at(&ln),
         evaluations,
     })
+}
+
+/// The search space: each free term's natural-log factor on the start
+/// model, a wander term at or below [`VANISH_LN`] dropped.
+struct LogSpace {
+    start: NoiseModel,
+    free: Vec<FreeTerm>,
+}
+
+impl LogSpace {
+    fn model_at(&self, ln: &[f64]) -> NoiseModel {
+        let mut m = self.start;
+        for (t, l) in self.free.iter().zip(ln) {
+            let f = if *l <= VANISH_LN && t.may_vanish() {
+                0.0
+            } else {
+                l.exp()
+            };
+            t.values(&mut m).iter_mut().for_each(|v| *v *= f);
+        }
+        m
+    }
+
+    /// Each factor raised to its floor: wander to where it vanishes, white
+    /// noise to [`WHITE_FLOOR_LN`].
+    fn clamp(&self, x: &mut [f64]) {
+        for (v, t) in x.iter_mut().zip(&self.free) {
+            let floor = if t.may_vanish() {
+                VANISH_LN
+            } else {
+                WHITE_FLOOR_LN
+            };
+            *v = v.max(floor);
+        }
+    }
+
+    /// The maximum of `evaluate` over the `moving` factors from `x0`, the
+    /// others held: the point, its value and the evaluations spent.
+    fn search(
+        &self,
+        evaluate: &dyn Fn(&[f64]) -> Result<f64, CalibError>,
+        x0: &[f64],
+        moving: &[bool],
+    ) -> Result<(Vec<f64>, f64, usize), CalibError> {
+        let embed = |y: &[f64]| {
+            let mut x = x0.to_vec();
+            let slots = x.iter_mut().zip(moving).filter(|(_, m)| **m);
+            for ((v, _), value) in slots.zip(y) {
+                *v = *value;
+            }
+            self.clamp(&mut x);
+            x
+        };
+        let y0: Vec<f64> = x0
+            .iter()
+            .zip(moving)
+            .filter(|(_, m)| **m)
+            .map(|(v, _)| *v)
+            .collect();
+        let (y, value, n) = nelder_mead(|y: &[f64]| evaluate(&embed(y)), &y0)?;
+        Ok((embed(&y), value, n))
+    }
 }
 
 /// The maximum of `f` over R^n by Nelder–Mead from `origin`: a simplex
