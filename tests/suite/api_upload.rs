@@ -154,15 +154,6 @@ async fn bad_data_is_refused_naming_the_problem_and_nothing_is_stored() {
             None,
         ),
         (
-            "time step zero",
-            &csv_meta,
-            with(3, "0.03,0,0,0,0,0,0.098"),
-            422,
-            "line 5: time 0.03 does not increase",
-            Some(5),
-            None,
-        ),
-        (
             "non-finite",
             &csv_meta,
             with(0, "0.01,inf,0,0,0,0,0.098"),

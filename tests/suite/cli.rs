@@ -199,17 +199,20 @@ fn plan_says_what_a_run_of_the_scheme_would_name() {
     assert!(detectable.iter().all(|t| t["size"].as_f64().unwrap() > 0.0));
 }
 
+/// `plan` of `ten-position` with 120 s dwells at 20 Hz.
+const PLAN_TEN_POSITION: [&str; 7] = [
+    "plan",
+    "--scheme",
+    "ten-position",
+    "--dwell",
+    "120",
+    "--rate",
+    "20",
+];
+
 #[test]
 fn plan_prints_a_sigma_for_every_parameter() {
-    let text = stdout_of(sinscal().args([
-        "plan",
-        "--scheme",
-        "ten-position",
-        "--dwell",
-        "120",
-        "--rate",
-        "20",
-    ]));
+    let text = stdout_of(sinscal().args(PLAN_TEN_POSITION));
     assert_eq!(
         text.lines()
             .filter(|l| l.starts_with("gyro_") || l.starts_with("accel_"))
@@ -232,15 +235,7 @@ fn plan_predicts_a_real_sensors_sigma() {
             .unwrap_or_else(|| panic!("{text}"));
         line.split_whitespace().nth(1).unwrap().parse().unwrap()
     };
-    let base = [
-        "plan",
-        "--scheme",
-        "ten-position",
-        "--dwell",
-        "120",
-        "--rate",
-        "20",
-    ];
+    let base = PLAN_TEN_POSITION;
     let white = stdout_of(sinscal().args(base));
     let real = stdout_of(sinscal().args(base).args([
         "--accel-bias-instability",
