@@ -8,7 +8,8 @@
 //! `--real` gives every run a real unit's noise (SPEC §2a, drawn per seed:
 //! `real_navigation_grade`), under the noise model the calibration
 //! measures and fits; `--first K` starts the clean seeds at K (to split
-//! a long count between processes); `--size K` runs the effects at K
+//! a long count between processes); `--each` prints every clean seed's
+//! statistics as it ends (a long count killed early keeps what it did); `--size K` runs the effects at K
 //! times their low end only;
 //! `-- --clean 1000 --effects 0` estimates the false-alarm rate alone;
 //! `--by-hand` turns every scheme by hand (SPEC §4 flips drawn from the
@@ -96,6 +97,12 @@ fn main() {
                     r.noise_model.map(|m| m.model)
                 );
             }
+        }
+        if args.switch("--each") {
+            println!(
+                "  clean seed {seed}: χ² {:.0}/{:.0}, largest |z| {:.2}/{:.2}",
+                c.statistic, c.threshold, c.largest_z, c.largest_z_threshold
+            );
         }
         // (χ² − dof)/√(2 dof) is N(0, 1) under the model.
         let r = (c.statistic - c.dof as f64) / (2.0 * c.dof as f64).sqrt();

@@ -60,14 +60,14 @@ pub fn estimate(
     let opts = &with_thermal_states(opts, temperature.as_ref())?;
     let scan = scan_run(source, run, opts, cancel)?;
     let ctx = PassContext::new(source, run, opts, &scan, cancel).with_temperature(temperature);
-    check_scanned(&ctx)?;
-    match opts.noise {
-        Some(_) => estimate_from(&ctx, None, progress),
-        None => {
-            let (measured, head) = measure_beside_first_pass(&ctx, progress)?;
-            estimate_from(&ctx.with_noise(measured), Some(head), progress)
-        }
-    }
+    Ok(estimate_scanned(&ctx, progress)?.result)
+}
+
+/// A calibration and the noise model its last passes ran under (given,
+/// measured, or fitted to the run).
+pub(crate) struct Calibrated {
+    pub result: CalibrationResult,
+    pub noise: NoiseModel,
 }
 
 /// The run's own noise model (`noise_measure`: one more streaming read,
@@ -119,13 +119,69 @@ fn with_thermal_states(
 }
 
 /// Calibrates a run already scanned (the discrepancy workflow keeps the
-/// scan for its own passes) under the context's noise model.
+/// scan for its own passes): under the options' noise model when they
+/// give one, else under the run's own, measured and, where it holds §2a
+/// terms, fitted.
 pub(crate) fn estimate_scanned(
     ctx: &PassContext,
     progress: &mut dyn FnMut(Progress),
-) -> Result<CalibrationResult, CalibError> {
+) -> Result<Calibrated, CalibError> {
     check_scanned(ctx)?;
-    estimate_from(ctx, None, progress)
+    match ctx.opts.noise {
+        Some(_) => estimate_from(ctx, None, progress),
+        None => {
+            let (measured, head) = measure_beside_first_pass(ctx, progress)?;
+            estimate_from(&ctx.with_noise(measured), Some(head), progress)
+        }
+    }
+}
+
+/// The base model's calibration of a scanned run for the discrepancy
+/// workflow, under the noise model `calibrate` would measure and fit for
+/// it with its thermal states: the noise of a run whose temperature spans
+/// is fitted with the thermal states in the model (as `calibrate`
+/// carries them with `thermal_auto`); a fit
+/// under the base model alone would read the thermal drift as noise (a
+/// white unit on a 20 °C ramp fitted 4× its ARW, gyro B 0.003 deg/h and
+/// accelerometer K 14 µg/√h) and leave the workflow nothing to name. The
+/// base model then runs under that noise model, held.
+pub(crate) fn estimate_base_for_diagnosis(
+    ctx: &PassContext,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Calibrated, CalibError> {
+    let calibrate_opts = with_thermal_states(
+        &EstimateOptions {
+            thermal_auto: true,
+            ..ctx.opts.clone()
+        },
+        ctx.temperature.as_ref(),
+    )?;
+    if calibrate_opts.model == ctx.opts.model || ctx.opts.noise.is_some() {
+        return estimate_scanned(ctx, progress);
+    }
+    // Two calibrations, each half of the progress.
+    let probe_ctx = ctx.with_options(&calibrate_opts);
+    let probe = estimate_scanned(&probe_ctx, &mut |p| {
+        progress(Progress {
+            fraction: 0.5 * p.fraction,
+            ..p
+        })
+    })?;
+    let held = EstimateOptions {
+        fit_noise: false,
+        ..ctx.opts.clone()
+    };
+    let held_ctx = ctx.with_options(&held).with_noise(probe.noise);
+    check_scanned(&held_ctx)?;
+    let mut base = estimate_from(&held_ctx, None, &mut |p| {
+        progress(Progress {
+            fraction: 0.5 + 0.5 * p.fraction,
+            ..p
+        })
+    })?;
+    // Where the model came from is the probe's (measured or fitted).
+    base.result.noise_model = probe.result.noise_model;
+    Ok(base)
 }
 
 /// What a scanned run must hold before any pass: two dwells at least, and
@@ -172,7 +228,7 @@ fn estimate_from(
     ctx: &PassContext,
     head: Option<Estimate>,
     progress: &mut dyn FnMut(Progress),
-) -> Result<CalibrationResult, CalibError> {
+) -> Result<Calibrated, CalibError> {
     let (opts, scan) = (ctx.opts, ctx.scan);
     let effect_states = opts.model.states();
     let share = passes_share(opts);
@@ -343,7 +399,7 @@ fn estimate_from(
         fraction: 1.0,
         stage: "done".into(),
     });
-    Ok(CalibrationResult {
+    let result = CalibrationResult {
         estimator: opts.estimator.name().into(),
         model: opts.model.to_string(),
         parameters,
@@ -376,6 +432,10 @@ fn estimate_from(
         // caller that read the metadata fills it.
         temperature: ctx.temperature.as_ref().map(TemperatureCurve::summary),
         thermal,
+    };
+    Ok(Calibrated {
+        result,
+        noise: ctx.noise,
     })
 }
 

@@ -44,6 +44,16 @@ impl NormalEquations {
         }
     }
 
+    /// A prior of information `info` on the unknowns `idx` (row j of
+    /// `info` is unknown `idx[j]`), centred on zero.
+    pub fn add_information(&mut self, idx: &[usize], info: &DMatrix<f64>) {
+        for (a, &i) in idx.iter().enumerate() {
+            for (b, &j) in idx.iter().enumerate() {
+                self.normal[(i, j)] += info[(a, b)];
+            }
+        }
+    }
+
     /// An observation block with residual r = L u_loc + d and weight W,
     /// where u_loc are the unknowns `idx` (column j of L is unknown
     /// `idx[j]`).

@@ -115,6 +115,18 @@ impl PassContext<'_> {
 }
 
 impl<'a> PassContext<'a> {
+    /// The context under other options (the same run, scan and noise).
+    pub(crate) fn with_options<'b>(&self, opts: &'b EstimateOptions) -> PassContext<'b>
+    where
+        'a: 'b,
+    {
+        PassContext {
+            opts,
+            temperature: self.temperature.clone(),
+            ..*self
+        }
+    }
+
     /// The context under another noise model.
     pub(crate) fn with_noise(&self, noise: NoiseModel) -> PassContext<'a> {
         let noise = noise.floored(MIN_ARW, MIN_VRW);

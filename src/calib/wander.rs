@@ -99,6 +99,32 @@ impl WanderComponent {
     }
 }
 
+impl WanderComponent {
+    /// Covariance of the component's means over two windows of the run,
+    /// `a` and `b` ((start, end), seconds from the run's start): the
+    /// double integral of its autocovariance over the windows, divided by
+    /// their lengths. A Markov state is stationary, e^{−|Δt|/τ} times its
+    /// variance; a random walk starts at zero, K² min(s, t).
+    pub fn window_mean_covariance(&self, a: (f64, f64), b: (f64, f64)) -> f64 {
+        let (len_a, len_b) = (a.1 - a.0, b.1 - b.0);
+        // ∫∫ f(t − s) over the windows from the even h with h'' = f.
+        let rectangle =
+            |h: &dyn Fn(f64) -> f64| h(b.1 - a.0) - h(b.1 - a.1) - h(b.0 - a.0) + h(b.0 - a.1);
+        match self.kind {
+            WanderKind::Markov { tau_s, variance } => {
+                let h = |x: f64| tau_s * x.abs() + tau_s * tau_s * (-x.abs() / tau_s).exp_m1();
+                variance * rectangle(&h) / (len_a * len_b)
+            }
+            WanderKind::RandomWalk { density } => {
+                // min(s, t) = (s + t − |t − s|)/2.
+                let cube = |x: f64| x.abs().powi(3) / 6.0;
+                let sum = len_a * len_b * (0.5 * (a.0 + a.1) + 0.5 * (b.0 + b.1));
+                density * 0.5 * (sum - rectangle(&cube)) / (len_a * len_b)
+            }
+        }
+    }
+}
+
 /// The wander states a noise model needs over a run of `run_s` seconds:
 /// per bias axis, the flicker bank for its instability and a random walk
 /// for its K, each only where the term is non-zero.
@@ -237,6 +263,67 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn window_means_have_their_closed_forms() {
+        let markov = WanderComponent {
+            axis: 0,
+            kind: WanderKind::Markov {
+                tau_s: 50.0,
+                variance: 4.0,
+            },
+        };
+        let walk = WanderComponent {
+            axis: 0,
+            kind: WanderKind::RandomWalk { density: 3.0 },
+        };
+        // Against a midpoint double sum of the autocovariance.
+        let numeric = |c: &WanderComponent, a: (f64, f64), b: (f64, f64)| {
+            let n = 400;
+            let (da, db) = ((a.1 - a.0) / n as f64, (b.1 - b.0) / n as f64);
+            let mut sum = 0.0;
+            for i in 0..n {
+                let s = a.0 + (i as f64 + 0.5) * da;
+                for j in 0..n {
+                    let t = b.0 + (j as f64 + 0.5) * db;
+                    sum += match c.kind {
+                        WanderKind::Markov { tau_s, variance } => {
+                            variance * (-(t - s).abs() / tau_s).exp()
+                        }
+                        WanderKind::RandomWalk { density } => density * s.min(t),
+                    };
+                }
+            }
+            sum / (n * n) as f64
+        };
+        for (a, b) in [
+            ((0.0, 100.0), (0.0, 100.0)),
+            ((20.0, 80.0), (150.0, 400.0)),
+            ((500.0, 560.0), (30.0, 90.0)),
+            ((10.0, 200.0), (100.0, 300.0)),
+        ] {
+            for c in [&markov, &walk] {
+                let (exact, sum) = (c.window_mean_covariance(a, b), numeric(c, a, b));
+                assert!(
+                    (exact / sum - 1.0).abs() < 1e-3,
+                    "{c:?} {a:?} {b:?}: {exact} {sum}"
+                );
+            }
+        }
+        // The limits: a short window of a slow process is its variance;
+        // a walk's mean over [0, T] has variance K²T/3.
+        let slow = WanderComponent {
+            axis: 0,
+            kind: WanderKind::Markov {
+                tau_s: 1e7,
+                variance: 2.0,
+            },
+        };
+        assert!(
+            (slow.window_mean_covariance((0.0, 10.0), (5e3, 5e3 + 10.0)) / 2.0 - 1.0).abs() < 1e-3
+        );
+        assert!((walk.window_mean_covariance((0.0, 90.0), (0.0, 90.0)) - 3.0 * 30.0).abs() < 1e-9);
     }
 
     #[test]

@@ -26,14 +26,15 @@ use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::candidates::Candidate;
 use super::error::DiagnoseError;
+use super::gap_wander::WanderPrior;
 use crate::calib::effect_sensitivity::{EffectParameter, EffectTerms};
 use crate::calib::filter::{error_dynamics, transition, NAV};
 use crate::calib::nodes::{walk_nodes, Stretch};
 use crate::calib::normal::NormalEquations;
-use crate::calib::priors::{start_attitude_information, white_noise_density};
+use crate::calib::priors::{prior_sigma, start_attitude_information, white_noise_density};
 use crate::calib::walk::PassContext;
 use crate::calib::CalibError;
-use crate::model::{ErrorParameters, N_PARAMS};
+use crate::model::{bias_parameter, ErrorParameters, N_PARAMS};
 
 /// Prior σ of a scaled effect parameter: a hundred signature sizes, so
 /// the prior only keeps an unobservable combination finite.
@@ -198,6 +199,8 @@ pub struct GapProblem {
     delay: Option<DelayColumns>,
     p0_phi_inv: Matrix3<f64>,
     n_nodes: usize,
+    /// Each stretch's mean of each wandering bias, when a bias wanders.
+    wander: Option<WanderPrior>,
 }
 
 /// A fit of the gap with the base parameters and some effect parameters.
@@ -277,6 +280,14 @@ impl GapProblem {
             .ok_or_else(|| DiagnoseError::Numerical("singular attitude prior".into()))?;
         let qc = white_noise_density(ctx.arw, ctx.vrw);
         let k_nodes = nodes.t.len();
+        let t0 = ctx.scan.t_begin;
+        let windows: Vec<(f64, f64)> = nodes.t.windows(2).map(|w| (w[0] - t0, w[1] - t0)).collect();
+        let wander = WanderPrior::new(
+            &ctx.noise,
+            &windows,
+            ctx.scan.duration_s(),
+            &prior_sigma(ctx.opts.prior_scale),
+        );
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         for k in 0..k_nodes - 1 {
             let t = nodes.t[k + 1] - nodes.t[k];
@@ -293,6 +304,7 @@ impl GapProblem {
             delay,
             p0_phi_inv,
             n_nodes: k_nodes,
+            wander,
         })
     }
 
@@ -340,28 +352,45 @@ impl GapProblem {
         let n_p = N_PARAMS;
         let n_e = effects.len();
         let phi = |k: usize| n_p + n_e + 3 * k;
-        let n = n_p + n_e + 3 * self.n_nodes;
+        let n_w = self.wander.as_ref().map_or(0, WanderPrior::per_stretch);
+        let wander_at = phi(self.n_nodes);
+        let wander = |k: usize| wander_at + n_w * k;
+        let n = wander(self.stretches.len());
         let mut normal = NormalEquations::new(n);
         normal.add_diagonal(0..n_p, 1.0);
         normal.add_diagonal(n_p..n_p + n_e, 1.0 / (EFFECT_PRIOR * EFFECT_PRIOR));
         normal.add_block3(phi(0), &self.p0_phi_inv);
+        if let Some(w) = &self.wander {
+            for (a, info) in w.information.iter().enumerate() {
+                let idx: Vec<usize> = (0..self.stretches.len()).map(|k| wander(k) + a).collect();
+                normal.add_information(&idx, info);
+            }
+        }
         let local = |k: usize| -> Vec<usize> {
-            (0..n_p + n_e).chain(phi(k)..phi(k) + 6).collect::<Vec<_>>()
+            (0..n_p + n_e)
+                .chain(phi(k)..phi(k) + 6)
+                .chain(wander(k)..wander(k) + n_w)
+                .collect::<Vec<_>>()
         };
-        let design = |k: usize, s: &GapStretch| -> DMatrix<f64> {
-            let mut l = DMatrix::<f64>::zeros(6, n_p + n_e + 6);
+        let design = |s: &GapStretch| -> DMatrix<f64> {
+            let mut l = DMatrix::<f64>::zeros(6, n_p + n_e + 6 + n_w);
             l.view_mut((0, 0), (6, n_p)).copy_from(&s.b);
             for (c, &j) in effects.iter().enumerate() {
                 l.view_mut((0, n_p + c), (6, 1))
                     .copy_from(&self.linearised(s, j, delay_at));
             }
             s.model.attitude_columns(&mut l, n_p + n_e);
-            let _ = k;
+            // A stretch's wander acts through its own bias columns.
+            if let Some(w) = &self.wander {
+                for (a, &axis) in w.axes.iter().enumerate() {
+                    l.set_column(n_p + n_e + 6 + a, &s.b.column(bias_parameter(axis)));
+                }
+            }
             l
         };
         for (k, s) in self.stretches.iter().enumerate() {
             let d = self.data(s, effects, delay_at);
-            normal.add_observation(&local(k), &design(k, s), &s.model.w, &d);
+            normal.add_observation(&local(k), &design(s), &s.model.w, &d);
         }
         let sol = normal.solve().ok_or_else(|| {
             DiagnoseError::Numerical("the gap's normal equations are singular".into())
@@ -374,7 +403,7 @@ impl GapProblem {
         let mut stretch_chi2 = Vec::with_capacity(self.stretches.len());
         let mut stretch_dof = Vec::with_capacity(self.stretches.len());
         for (k, s) in self.stretches.iter().enumerate() {
-            let l = design(k, s);
+            let l = design(s);
             let idx = local(k);
             let u_loc = DVector::from_iterator(idx.len(), idx.iter().map(|&i| u[i]));
             let r = &l * &u_loc + self.data(s, effects, delay_at);
@@ -399,7 +428,11 @@ impl GapProblem {
         let prior_terms: f64 = (0..n_p).map(|i| u[i] * u[i]).sum::<f64>()
             + (0..n_e)
                 .map(|i| (u[n_p + i] / EFFECT_PRIOR).powi(2))
-                .sum::<f64>();
+                .sum::<f64>()
+            + self
+                .wander
+                .as_ref()
+                .map_or(0.0, |w| w.prior_cost(&u.as_slice()[wander_at..]));
         let sd = |i: usize| cov[(i, i)].max(0.0).sqrt();
         let theta_corr = DMatrix::from_fn(n_e, n_e, |a, b| {
             cov[(n_p + a, n_p + b)] / (sd(n_p + a) * sd(n_p + b)).max(f64::MIN_POSITIVE)

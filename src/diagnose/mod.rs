@@ -36,6 +36,7 @@ pub mod candidates;
 pub mod detect;
 pub mod error;
 pub mod gap;
+mod gap_wander;
 mod library;
 mod localise;
 pub mod options;
@@ -50,7 +51,7 @@ pub mod verdict;
 use std::collections::BTreeMap;
 use std::sync::atomic::AtomicBool;
 
-use crate::calib::estimate::estimate_scanned;
+use crate::calib::estimate::estimate_base_for_diagnosis;
 use crate::calib::plan::PlanInput;
 use crate::calib::prescan::scan_run;
 use crate::calib::priors::prior_sigma;
@@ -91,12 +92,16 @@ pub fn diagnose(
         .is_some_and(|c| c.span_c() >= THERMAL_SPAN_C);
     let ctx =
         PassContext::new(source, run, &opts.estimate, &scan, cancel).with_temperature(temperature);
-    let base_cal = estimate_scanned(&ctx, &mut |p| {
+    let base = estimate_base_for_diagnosis(&ctx, &mut |p| {
         progress(Progress {
             fraction: 0.4 * p.fraction,
             stage: format!("base calibration: {}", p.stage),
         })
     })?;
+    // The gap is weighed under the noise model the calibration ran under:
+    // on a real unit, its wander and its white densities without pulses.
+    let ctx = ctx.with_noise(base.noise);
+    let base_cal = base.result;
     fn stage(progress: &mut dyn FnMut(Progress), f: f64, s: &str) {
         progress(Progress {
             fraction: f,

@@ -8,7 +8,7 @@ pub mod thermal;
 pub mod units;
 
 pub use effects::Effects;
-pub use params::{ErrorParameters, Group, ParameterInfo, N_PARAMS, PARAMETERS};
+pub use params::{bias_parameter, ErrorParameters, Group, ParameterInfo, N_PARAMS, PARAMETERS};
 pub use thermal::{TemperatureHistory, ThermalTruth};
 pub mod error_model;
 pub use error_model::Compensator;

@@ -109,6 +109,16 @@ pub fn index_of(name: &str) -> Option<usize> {
     PARAMETERS.iter().position(|p| p.name == name)
 }
 
+/// The parameter of bias axis `axis`: gyro x, y, z (0..3), then
+/// accelerometer x, y, z (3..6), the order of the noise model's bias axes.
+pub const fn bias_parameter(axis: usize) -> usize {
+    if axis < 3 {
+        GYRO_BIAS + axis
+    } else {
+        ACCEL_BIAS + axis - 3
+    }
+}
+
 // Offsets of each family in the canonical order.
 const GYRO_BIAS: usize = 0;
 const GYRO_SCALE: usize = 3;

@@ -32,3 +32,31 @@ fn clean_runs_name_nothing() {
     eprintln!("z over seeds: {z:.2?}, mean {mean:.2}");
     assert!(mean.abs() < 1.5, "mean z {mean:.2}");
 }
+
+/// A real unit's clean runs (SPEC §2a: pulses, wandering biases, floor
+/// vibration): the diagnosis weighs the gap under the noise model the
+/// calibration fitted, wander included, so nothing is named and the gap
+/// sits at its floor. Weighed under the pre-scan's white densities
+/// instead (pulses read as noise 100× too large), seed 4 named a bias
+/// drift and the gap's z ran from −10 to 0
+/// (`cargo bench --bench diagnose_detect -- --real --clean-only`).
+#[test]
+fn a_real_units_clean_runs_name_nothing() {
+    use sinscal::calib::result::NoiseSource;
+    let seeds = [1u64, 4];
+    let reps = on_both_cores(&seeds, |&seed| {
+        let mut cfg = config(nine_plus_nine(300.0), Effects::none(), seed);
+        cfg.noise = crate::model_check_support::real_navigation_grade(seed);
+        run(&cfg)
+    });
+    for (seed, rep) in seeds.into_iter().zip(reps) {
+        let noise = rep.base_calibration.noise_model.as_ref().unwrap();
+        assert_eq!(noise.source, NoiseSource::Fitted, "seed {seed}");
+        assert_eq!(rep.verdict, Verdict::NoSignificantEffect, "seed {seed}");
+        assert!(
+            rep.z_before.abs() < 3.0,
+            "seed {seed}: z {:.2}",
+            rep.z_before
+        );
+    }
+}
