@@ -31,7 +31,7 @@ use crate::sim::{HandTurns, Scheme};
 pub use detect::DetectGoal;
 use detect::{DetectOutcome, Detection};
 use information::{Information, ObjectiveSettings};
-use search::{Scorer, SearchSpace};
+use search::{Scored, Scorer, SearchSpace};
 pub use target::{Target, TargetError};
 
 /// Most turns a request may allow: a search's cost grows with it.
@@ -169,7 +169,8 @@ pub struct Design {
     /// the length.
     pub binding: Vec<String>,
     pub comparisons: Vec<Comparison>,
-    /// How many schemes were scored.
+    /// How many schemes the last search scored (a scheme met twice
+    /// counts twice, though its score is reused).
     pub evaluations: usize,
 }
 
@@ -284,9 +285,10 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
         .time_limit_s
         .map(|s| std::time::Instant::now() + std::time::Duration::from_secs_f64(s));
     let mut detection = detection(req);
+    let scored = Scored::default();
     let mut round = 0;
     loop {
-        let (mut design, info) = searched(req, detection.as_ref(), deadline)?;
+        let (mut design, info) = searched(req, detection.as_ref(), deadline, &scored)?;
         let Some(d) = &mut detection else {
             return Ok(design);
         };
@@ -319,6 +321,7 @@ fn searched(
     req: &DesignRequest,
     detection: Option<&Detection>,
     deadline: Option<std::time::Instant>,
+    scored: &Scored,
 ) -> Result<(Design, Information), DesignError> {
     let target = req.target.clone().unwrap_or_else(Target::table1);
     let settings = objective_settings(req);
@@ -334,6 +337,7 @@ fn searched(
         detect: detection,
         realise: &realise,
         evaluations: std::cell::Cell::new(0),
+        scored,
         deadline,
     };
     let frames: &[Frame] = match req.axes {

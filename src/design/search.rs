@@ -10,6 +10,17 @@
 //! several parameters counts for more than one that helps the worst
 //! alone). Every length's best sequence is timed, the shortest kept, and
 //! its dwells are then shortened one by one while the goal still holds.
+//!
+//! A design meets the same schemes again: the second search bisects
+//! sequences the first already timed, and after a `--detect` check the
+//! searches rerun with only the goals' correction changed, which the
+//! scheme's information does not depend on. Each scheme is scored once
+//! per design (`Scored`).
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+
+use sha2::{Digest, Sha256};
 
 use crate::calib::CalibError;
 use crate::sim::scheme::{Axis, Frame, Rotate, Step};
@@ -66,6 +77,20 @@ impl SearchSpace {
     }
 }
 
+/// The information of every scheme scored so far in one design, by a
+/// digest of the scheme's steps (SPEC §4 JSON): a scheme met again is not
+/// scored again. A digest rather than the steps keeps the memory small
+/// on long searches (tens of thousands of schemes of up to 96 turns).
+#[derive(Default)]
+pub struct Scored(RefCell<HashMap<[u8; 32], Information>>);
+
+impl Scored {
+    fn key(scheme: &Scheme) -> [u8; 32] {
+        let steps = serde_json::to_vec(&scheme.steps).expect("a scheme serialises");
+        Sha256::digest(&steps).into()
+    }
+}
+
 /// How a candidate is scored: the predicted σ of each parameter against
 /// its goal (target over margin), in `PARAMETERS` order, then each
 /// effect's threshold against its goal (size over `DETECT_MARGIN`).
@@ -78,8 +103,10 @@ pub struct Scorer<'a> {
     /// Turns a scheme into what is really run (hand turns); identity for
     /// a turntable.
     pub realise: &'a dyn Fn(&Scheme) -> Result<Scheme, String>,
-    /// Schemes scored so far.
+    /// Schemes asked for so far (a scheme met again counts again).
     pub evaluations: std::cell::Cell<usize>,
+    /// The schemes already scored in this design.
+    pub scored: &'a Scored,
     /// When the search must give up (a server bounds what one request
     /// may cost); `None` searches to the end.
     pub deadline: Option<std::time::Instant>,
@@ -94,8 +121,14 @@ impl Scorer<'_> {
             return Err(CalibError::Cancelled);
         }
         self.evaluations.set(self.evaluations.get() + 1);
+        let key = Scored::key(scheme);
+        if let Some(info) = self.scored.0.borrow().get(&key) {
+            return Ok(info.clone());
+        }
         let run = (self.realise)(scheme).map_err(CalibError::Unusable)?;
-        scheme_information(&run, self.settings)
+        let info = scheme_information(&run, self.settings)?;
+        self.scored.0.borrow_mut().insert(key, info.clone());
+        Ok(info)
     }
 
     /// σ over goal, per parameter, then threshold over goal per effect.

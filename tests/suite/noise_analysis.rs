@@ -1,22 +1,16 @@
 //! The noise analysis against noise of known size: a static run whose axes
 //! carry white noise, rate (or acceleration) random walk and flicker noise
-//! built here, a run written by `sinscal simulate` (white ARW and VRW), and
-//! the same through the server's `GET /runs/{id}/noise`.
-
-use crate::common;
+//! built here, and a run written by `sinscal simulate` (white ARW and VRW);
+//! the same through the server is `api_noise`'s.
 
 use std::process::Command;
 use std::sync::atomic::AtomicBool;
-use std::time::Duration;
 
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
-use reqwest::StatusCode;
 use serde_json::Value;
 
-use common::*;
-use sinscal::io::data::DataFormat;
 use sinscal::model::units::{DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
 use sinscal::noise::fit::FLICKER_FLOOR;
 use sinscal::noise::{analyse, NoiseError, NoiseOptions, NoiseReport, Span, Stretches, Term};
@@ -184,7 +178,7 @@ pub(crate) fn value(t: &Term) -> f64 {
     t.value.unwrap_or_else(|| panic!("not a value: {}", t.text))
 }
 
-fn within(what: &str, got: f64, truth: f64, tolerance: f64) {
+pub(crate) fn within(what: &str, got: f64, truth: f64, tolerance: f64) {
     let err = (got - truth) / truth;
     println!(
         "{what:<26} identified {got:12.6}  true {truth:12.6}  ({:+.1} %)",
@@ -395,63 +389,4 @@ fn a_simulated_run_gives_back_its_arw_and_vrw() {
         n
     );
     assert_eq!(curves["accel"]["z"]["edf"].as_array().unwrap().len(), n);
-}
-
-/// The endpoint on an uploaded simulated run: the engineer reads the
-/// analysis, ARW and VRW within 10 %; an unknown run is 404, no token 401,
-/// a station token 403.
-#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn the_api_serves_the_noise_of_a_stored_run() {
-    let app = spawn_app(1).await;
-    let dir = tempfile::tempdir().unwrap();
-    let run = short_run(dir.path(), 5, DataFormat::F64le, "RLG-N1");
-    let (run_id, _) = app
-        .upload_and_calibrate("RLG-N1", &run, Duration::from_secs(120))
-        .await;
-
-    let engineer = app.create_token("engineer").await;
-    let r = app.get(&engineer, &format!("/runs/{run_id}/noise")).await;
-    assert_eq!(r.status(), StatusCode::OK);
-    assert_eq!(r.headers()["content-type"], "application/json");
-    let report: Value = r.json().await.unwrap();
-    assert_eq!(
-        report["computed_over"]["stretches"]
-            .as_array()
-            .unwrap()
-            .len(),
-        10
-    );
-    for axis in ["x", "y", "z"] {
-        within(
-            &format!("served gyro {axis} ARW"),
-            report["gyro"][axis]["arw_deg_rt_h"]["value"]
-                .as_f64()
-                .unwrap(),
-            0.0003,
-            0.10,
-        );
-        within(
-            &format!("served accel {axis} VRW"),
-            report["accel"][axis]["vrw_ug_rt_hz"]["value"]
-                .as_f64()
-                .unwrap(),
-            5.0,
-            0.10,
-        );
-    }
-
-    let unknown = format!("/runs/{}/noise", uuid::Uuid::new_v4());
-    let (status, body) = problem(app.get(&engineer, &unknown).await).await;
-    assert_eq!(status, StatusCode::NOT_FOUND, "{body}");
-    let r = app
-        .http
-        .get(app.url(&format!("/runs/{run_id}/noise")))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(problem(r).await.0, StatusCode::UNAUTHORIZED);
-    let station = app.create_token("station").await;
-    let r = app.get(&station, &format!("/runs/{run_id}/noise")).await;
-    assert_eq!(problem(r).await.0, StatusCode::FORBIDDEN);
-    app.stop().await;
 }
