@@ -20,11 +20,11 @@ mod thermal_support;
 
 use std::time::Instant;
 
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::{Effect, ErrorModel, EstimateOptions};
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{ErrorParameters, Group, PARAMETERS};
-use sinscal::thermal::fit_thermal_model;
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::{Effect, ErrorModel, EstimateOptions};
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::{ErrorParameters, Group, PARAMETERS};
+use sinscal_core::thermal::fit_thermal_model;
 use thermal_support::*;
 
 fn main() {
