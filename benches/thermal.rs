@@ -117,7 +117,7 @@ fn ramps(seeds: u64) {
     let (mut n_linear, mut n_k, mut n_value) = (0usize, 0usize, 0usize);
     let (mut within, mut table1, mut adequate) = (0, 0, 0);
     // Table 1 but the gyro biases, and the gyro biases within 3.5σ (their
-    // σ on this run is near the bound: see the README).
+    // σ on this run is near the bound: see docs/FIGURES.md, "Thermal").
     let (mut table1_but_gyro_bias, mut gyro_bias_statistical) = (0, 0);
     let (mut worst_z, mut worst_table1) = (0.0f64, (0.0f64, ""));
     for seed in 1..=seeds {

@@ -202,7 +202,7 @@ fn jittered_stamps_and_a_gap_at_rest_calibrate_as_the_even_run_and_a_gap_in_a_tu
 /// stamps as the white one does, under its own noise model (given, so
 /// that the comparison is of the stamps' handling alone: the model a fit
 /// finds on a run this short moves with the cut, see the bench figures in
-/// the README).
+/// docs/FIGURES.md, "Real sensors").
 ///
 /// Without pulses: two cuts of a pulsed run carry different quantization
 /// errors (the remainder at each record's end depends on where the

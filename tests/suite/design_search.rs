@@ -20,7 +20,7 @@ use sinscal_core::nav::Site;
 /// What the tests read (the goal met, the prediction against `plan`'s
 /// filter, the comparison, the frames, the refusals, the effect named)
 /// holds at any depth; designs at the default depth are the bench's
-/// (`benches/design.rs`, README "Scheme design").
+/// (`benches/design.rs`, docs/FIGURES.md "Scheme design").
 fn tactical() -> DesignRequest {
     DesignRequest {
         target: Some(Target::table1().tightened(0.2)),
