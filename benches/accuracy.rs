@@ -30,12 +30,12 @@
 
 use rand::SeedableRng;
 
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::{EstimateOptions, NoiseDensity};
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
 
 /// The truth and start attitude (deg) of seed `seed` in `--raw` mode.
 fn raw_unit(seed: u64) -> (String, ErrorParameters, [f64; 3]) {
@@ -162,14 +162,15 @@ fn main() {
         if let Some(r) = turn_rate {
             // Fast turns, as by hand: the rate reached in a tenth of a turn.
             for step in &mut scheme.steps {
-                if let sinscal::sim::scheme::Step::Rotate { rotate } = step {
+                if let sinscal_core::sim::scheme::Step::Rotate { rotate } = step {
                     rotate.rate_dps = r;
                     rotate.accel_dps2 = r * r / 9.0;
                 }
             }
         }
         if by_hand {
-            scheme = Scheme::by_hand(&scheme, seed, &sinscal::sim::HandTurns::default()).unwrap();
+            scheme =
+                Scheme::by_hand(&scheme, seed, &sinscal_core::sim::HandTurns::default()).unwrap();
         }
         let cfg = SimConfig {
             site,

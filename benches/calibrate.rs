@@ -9,11 +9,11 @@ use std::time::Instant;
 mod common;
 use common::peak_rss_mb;
 
-use sinscal::calib::EstimateOptions;
-use sinscal::io::data::DataFormat;
-use sinscal::io::meta::RunMetadata;
-use sinscal::io::run::write_simulated_run;
-use sinscal::pipeline::calibrate_file;
+use sinscal_core::calib::EstimateOptions;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::pipeline::calibrate_file;
 
 fn main() {
     let cfg = common::reference_run();

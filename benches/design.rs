@@ -11,9 +11,9 @@
 
 use std::time::Instant;
 
-use sinscal::design::information::scheme_information;
-use sinscal::design::{design, objective_settings, Axes, DesignRequest, DetectGoal, Target};
-use sinscal::sim::Scheme;
+use sinscal_core::design::information::scheme_information;
+use sinscal_core::design::{design, objective_settings, Axes, DesignRequest, DetectGoal, Target};
+use sinscal_core::sim::Scheme;
 
 fn goals(items: &[&str]) -> Vec<DetectGoal> {
     items.iter().map(|g| g.parse().unwrap()).collect()
@@ -81,7 +81,7 @@ fn main() {
             "tactical (ARW 0.001, VRW 10), table1 × 5, detect bias_drift=0.03deg/h/h",
             DesignRequest {
                 target: Some(Target::table1().tightened(0.2)),
-                noise: sinscal::calib::NoiseDensity::white(0.001, 10.0),
+                noise: sinscal_core::calib::NoiseDensity::white(0.001, 10.0),
                 detect: goals(&["bias_drift=0.03deg/h/h"]),
                 ..DesignRequest::default()
             },

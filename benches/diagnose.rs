@@ -11,13 +11,13 @@ use std::time::Instant;
 mod common;
 use common::peak_rss_mb;
 
-use sinscal::diagnose::DiagnoseOptions;
-use sinscal::io::data::DataFormat;
-use sinscal::io::meta::RunMetadata;
-use sinscal::io::run::write_simulated_run;
-use sinscal::model::Effects;
-use sinscal::pipeline::diagnose_file;
-use sinscal::sim::SimConfig;
+use sinscal_core::diagnose::DiagnoseOptions;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::Effects;
+use sinscal_core::pipeline::diagnose_file;
+use sinscal_core::sim::SimConfig;
 
 /// Lowers this process's peak RSS to its current RSS (Linux `clear_refs`),
 /// so a case's figure is not the previous case's peak. False where

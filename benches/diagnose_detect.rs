@@ -26,12 +26,12 @@ mod model_check_support;
 use std::collections::BTreeMap;
 
 use diagnosis_support::{by_hand, config, nine_plus_nine, run_quiet};
-use sinscal::diagnose::candidates::{add_effect, library};
-use sinscal::diagnose::detect::DetectionThreshold;
-use sinscal::model::Effects;
+use sinscal_core::diagnose::candidates::{add_effect, library};
+use sinscal_core::diagnose::detect::DetectionThreshold;
+use sinscal_core::model::Effects;
 
 /// The wander a calibration fitted: B and K of each triad, per axis.
-fn wander_of(rep: &sinscal::diagnose::DiagnoseReport) -> String {
+fn wander_of(rep: &sinscal_core::diagnose::DiagnoseReport) -> String {
     rep.base_calibration
         .noise_model
         .as_ref()

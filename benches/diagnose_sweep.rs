@@ -16,9 +16,9 @@ mod common;
 mod diagnosis_support;
 
 use diagnosis_support::{acceptance, both_ways, by_hand, config, nine_plus_nine, run_quiet};
-use sinscal::model::effects::{BiasDrift, LeverArms};
-use sinscal::model::Effects;
-use sinscal::sim::{Scheme, SimConfig};
+use sinscal_core::model::effects::{BiasDrift, LeverArms};
+use sinscal_core::model::Effects;
+use sinscal_core::sim::{Scheme, SimConfig};
 
 /// An effect's name, its run at a size, and the two ends of its range.
 type Case = (&'static str, fn(f64) -> Effects, [(f64, &'static str); 2]);

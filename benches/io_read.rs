@@ -12,8 +12,8 @@ use std::hint::black_box;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use sinscal::io::data::{DataFormat, RecordReader, RecordWriter, WriteOptions};
-use sinscal::Record;
+use sinscal_core::io::data::{DataFormat, RecordReader, RecordWriter, WriteOptions};
+use sinscal_core::Record;
 
 const RATE_HZ: f64 = 100.0;
 const REPETITIONS: usize = 5;

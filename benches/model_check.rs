@@ -24,7 +24,7 @@ mod support;
 
 use std::time::Instant;
 
-use sinscal::model::Effects;
+use sinscal_core::model::Effects;
 use support::*;
 
 fn main() {
@@ -37,10 +37,14 @@ fn main() {
     let dwell = flag("--dwell").unwrap_or(600.0);
     let by_hand = args.switch("--by-hand");
     // The scheme as run: `nominal` turned by hand with `--by-hand`.
-    let as_run = |nominal: &sinscal::sim::Scheme, seed: u64| {
+    let as_run = |nominal: &sinscal_core::sim::Scheme, seed: u64| {
         if by_hand {
-            sinscal::sim::Scheme::by_hand(nominal, seed, &sinscal::sim::HandTurns::default())
-                .unwrap()
+            sinscal_core::sim::Scheme::by_hand(
+                nominal,
+                seed,
+                &sinscal_core::sim::HandTurns::default(),
+            )
+            .unwrap()
         } else {
             nominal.clone()
         }

@@ -11,11 +11,11 @@ use std::time::Instant;
 mod common;
 use common::peak_rss_mb;
 
-use sinscal::io::data::DataFormat;
-use sinscal::io::meta::RunMetadata;
-use sinscal::io::run::write_simulated_run;
-use sinscal::noise::NoiseOptions;
-use sinscal::pipeline::noise_file;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::noise::NoiseOptions;
+use sinscal_core::pipeline::noise_file;
 
 fn main() {
     let cfg = common::reference_run();

@@ -37,14 +37,14 @@
 
 use rand::{Rng, SeedableRng};
 
-use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::sources::calibrate_in_memory;
-use sinscal::calib::{EstimateOptions, NoiseDensity};
-use sinscal::model::effects::LeverArms;
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
+use sinscal_core::calib::plan::{plan, PlanInput};
+use sinscal_core::calib::sources::calibrate_in_memory;
+use sinscal_core::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::model::effects::LeverArms;
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
 
 fn value<T: std::str::FromStr>(args: &[String], flag: &str) -> Option<T> {
     args.iter()

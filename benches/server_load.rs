@@ -22,13 +22,13 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use serde_json::Value;
-use sinscal::calib::ParameterEstimate;
-use sinscal::config::Config;
-use sinscal::io::data::DataFormat;
-use sinscal::io::run::write_simulated_run;
-use sinscal::model::PARAMETERS;
-use sinscal::server::Application;
-use sinscal::store::{NewRun, RunFile, Store};
+use sinscal_core::calib::ParameterEstimate;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::PARAMETERS;
+use sinscal_server::config::Config;
+use sinscal_server::server::Application;
+use sinscal_server::store::{NewRun, RunFile, Store};
 
 struct Client {
     http: reqwest::Client,
@@ -445,9 +445,12 @@ async fn scale_out() {
         base: format!("{addr}/api/v1"),
         token: token.expect("a fresh database makes an admin token"),
     };
-    let store = Store::connect(&sinscal::store::DatabaseUrl::Postgres(url.clone()), 2)
-        .await
-        .unwrap();
+    let store = Store::connect(
+        &sinscal_server::store::DatabaseUrl::Postgres(url.clone()),
+        2,
+    )
+    .await
+    .unwrap();
     let t = Instant::now();
     seed(&store, 100, 100, "DB").await;
     eprintln!(

@@ -10,11 +10,11 @@ use std::time::Instant;
 mod common;
 use common::peak_rss_mb;
 
-use sinscal::io::data::DataFormat;
-use sinscal::io::run::write_simulated_run;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::sim::{simulate, HandTurns, Noise, Scheme, SimConfig};
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{simulate, HandTurns, Noise, Scheme, SimConfig};
 
 fn config(scheme: &str, effects: Effects) -> SimConfig {
     SimConfig {

@@ -20,11 +20,11 @@ mod thermal_support;
 
 use std::time::Instant;
 
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::{Effect, ErrorModel, EstimateOptions};
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{ErrorParameters, Group, PARAMETERS};
-use sinscal::thermal::fit_thermal_model;
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::{Effect, ErrorModel, EstimateOptions};
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::{ErrorParameters, Group, PARAMETERS};
+use sinscal_core::thermal::fit_thermal_model;
 use thermal_support::*;
 
 fn main() {
@@ -117,7 +117,7 @@ fn ramps(seeds: u64) {
     let (mut n_linear, mut n_k, mut n_value) = (0usize, 0usize, 0usize);
     let (mut within, mut table1, mut adequate) = (0, 0, 0);
     // Table 1 but the gyro biases, and the gyro biases within 3.5σ (their
-    // σ on this run is near the bound: see the README).
+    // σ on this run is near the bound: see docs/FIGURES.md, "Thermal").
     let (mut table1_but_gyro_bias, mut gyro_bias_statistical) = (0, 0);
     let (mut worst_z, mut worst_table1) = (0.0f64, (0.0f64, ""));
     for seed in 1..=seeds {

@@ -11,17 +11,17 @@ use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
 use reqwest::header::{COOKIE, SET_COOKIE};
-use sinscal::accept::{LimitKind, ProductLimits};
-use sinscal::calib::ParameterEstimate;
-use sinscal::config::Config;
-use sinscal::io::data::DataFormat;
-use sinscal::io::run::write_simulated_run;
-use sinscal::jobs::JobRunner;
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::server::Application;
-use sinscal::sim::{Noise, Scheme, SimConfig};
-use sinscal::store::{NewRun, ProductTypeChange, RunFile, Store};
+use sinscal_core::accept::{LimitKind, ProductLimits};
+use sinscal_core::calib::ParameterEstimate;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
+use sinscal_server::config::Config;
+use sinscal_server::jobs::JobRunner;
+use sinscal_server::server::Application;
+use sinscal_server::store::{NewRun, ProductTypeChange, RunFile, Store};
 
 const RUNS: usize = 100;
 const UNITS: usize = 1000;

@@ -37,11 +37,11 @@ pub fn peak_rss_mb() -> f64 {
 /// 100 Hz, Table 1 truth, navigation-grade noise, a start a few tenths of a
 /// degree off nominal.
 #[allow(dead_code)]
-pub fn reference_run() -> sinscal::sim::SimConfig {
-    use sinscal::model::{Effects, ErrorParameters};
-    use sinscal::sim::{Noise, Scheme, SimConfig};
+pub fn reference_run() -> sinscal_core::sim::SimConfig {
+    use sinscal_core::model::{Effects, ErrorParameters};
+    use sinscal_core::sim::{Noise, Scheme, SimConfig};
     SimConfig {
-        site: sinscal::nav::Site::REFERENCE,
+        site: sinscal_core::nav::Site::REFERENCE,
         sample_rate_hz: 100.0,
         scheme: Scheme::builtin("ten-position-9+9", 600.0).unwrap(),
         params: ErrorParameters::paper(),

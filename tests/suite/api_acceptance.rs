@@ -11,9 +11,9 @@ use std::time::Duration;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::{json, Value};
-use sinscal::io::data::DataFormat;
-use sinscal::model::Effects;
-use sinscal::sim::SimConfig;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::Effects;
+use sinscal_core::sim::SimConfig;
 
 /// Uploads a simulated run naming `product`, waits for its calibration and
 /// returns the run's view.

@@ -12,8 +12,8 @@ use common::*;
 use rand::{Rng, SeedableRng};
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
-use sinscal::model::{ErrorParameters, PARAMETERS};
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::{ErrorParameters, PARAMETERS};
 
 /// Estimates must be within this many of their own σ of the truth. The
 /// estimator's σ is honest (z-scores of a few units at most on these runs),
@@ -432,7 +432,7 @@ async fn a_ramped_run_is_calibrated_with_thermal_states() {
     let mut cfg = sim_config(7, ErrorParameters::paper(), "ten-position-9+9", 60.0);
     cfg.sample_rate_hz = 20.0;
     cfg.thermal = Some(thermal_support::ramp_truth());
-    cfg.temperature = Some(sinscal::model::thermal::TemperatureHistory::Ramp {
+    cfg.temperature = Some(sinscal_core::model::thermal::TemperatureHistory::Ramp {
         start_c: 10.0,
         rate_c_per_min: 2.0,
         max_c: 30.0,

@@ -6,9 +6,9 @@ use crate::common;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::compensation::CompensationFile;
-use sinscal::io::data::DataFormat;
-use sinscal::model::PARAMETERS;
+use sinscal_core::compensation::CompensationFile;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::PARAMETERS;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_calibrated_run_serves_its_compensation_as_json_and_csv() {

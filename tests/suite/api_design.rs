@@ -75,7 +75,7 @@ async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
     }
     assert!(d["duration_s"].as_f64().unwrap() > 0.0);
     // The scheme is a SPEC §4 scheme the simulator accepts.
-    let scheme: sinscal::sim::Scheme = serde_json::from_value(d["scheme"].clone()).unwrap();
+    let scheme: sinscal_core::sim::Scheme = serde_json::from_value(d["scheme"].clone()).unwrap();
     scheme.validate().unwrap();
     // The request's limits hold: at most 7 turns, no dwell under 60 s.
     let (dwells, turns) = scheme.counts();
@@ -84,7 +84,7 @@ async fn an_engineer_gets_a_scheme_that_meets_the_goal() {
         "{dwells} dwells, {turns} turns"
     );
     for step in &scheme.steps {
-        if let sinscal::sim::scheme::Step::Dwell { dwell_s } = step {
+        if let sinscal_core::sim::scheme::Step::Dwell { dwell_s } = step {
             assert!(*dwell_s >= 60.0, "a dwell of {dwell_s} s");
         }
     }

@@ -8,9 +8,9 @@ use std::time::Duration;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::sim::{Noise, Scheme};
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::sim::{Noise, Scheme};
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn diagnose_job_names_accel_delay() {

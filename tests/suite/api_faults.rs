@@ -13,8 +13,8 @@ use bytes::Bytes;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::config::BodyPace;
-use sinscal::io::data::DataFormat;
+use sinscal_core::io::data::DataFormat;
+use sinscal_server::config::BodyPace;
 
 /// A tmpfs of `mib` MiB mounted on a fresh temp dir, or `None` (said on
 /// stderr) where this machine refuses the mount.
@@ -127,7 +127,7 @@ async fn upload_and_start(
 ) -> (
     Value,
     String,
-    tokio::task::JoinHandle<Result<sinscal::jobs::Outcome, sinscal::jobs::JobError>>,
+    tokio::task::JoinHandle<Result<sinscal_server::jobs::Outcome, sinscal_server::jobs::JobError>>,
 ) {
     let a = json_of(app.upload_run(serial, run).await, StatusCode::ACCEPTED).await;
     let job = a["job_id"].as_str().unwrap().to_string();
@@ -139,15 +139,17 @@ async fn upload_and_start(
 
 /// Once storage is back: the held job `job` ends as succeeded.
 async fn assert_succeeds(
-    step: tokio::task::JoinHandle<Result<sinscal::jobs::Outcome, sinscal::jobs::JobError>>,
+    step: tokio::task::JoinHandle<
+        Result<sinscal_server::jobs::Outcome, sinscal_server::jobs::JobError>,
+    >,
     job: &str,
 ) {
     let outcome = step.await.unwrap().unwrap();
     assert_eq!(
         outcome,
-        sinscal::jobs::Outcome::Ran {
+        sinscal_server::jobs::Outcome::Ran {
             job_id: job.to_string(),
-            end: sinscal::jobs::JobEnd::Succeeded
+            end: sinscal_server::jobs::JobEnd::Succeeded
         }
     );
 }
@@ -225,7 +227,7 @@ async fn a_real_full_disk_refuses_uploads_and_recovers_by_itself() {
     };
     // Only where the database lives on the full disk (SQLite in the data
     // folder): on PostgreSQL the result's rows do not meet it.
-    if app.store.backend() == sinscal::store::Backend::Sqlite {
+    if app.store.backend() == sinscal_server::store::Backend::Sqlite {
         let start = Instant::now();
         while retries().await == 0 {
             assert!(start.elapsed() < Duration::from_secs(120), "no retry seen");
@@ -396,7 +398,7 @@ async fn send_bomb(app: &TestApp, line: &str, members: usize) -> (StatusCode, Va
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn gzip_bombs_of_comment_lines_are_refused_after_a_bounded_read() {
     let app = spawn_app(0).await;
-    let defaults = sinscal::config::Config::new(".");
+    let defaults = sinscal_server::config::Config::new(".");
     // 9537 MiB = 10 GB.
     let (status, p, compressed, cpu) = send_bomb(&app, "#\n", 9537).await;
     eprintln!(
@@ -607,8 +609,13 @@ async fn oversized_heads_and_bad_token_roles_answer_problem_json() {
 fn token_create_refuses_a_data_dir_without_a_database() {
     let dir = tempfile::tempdir().unwrap();
     let typo = dir.path().join("sinscal-dta");
-    let e = sinscal::server::create_token(&typo, None, sinscal::store::Role::Station, None)
-        .expect_err("no database there");
+    let e = sinscal_server::server::create_token(
+        &typo,
+        None,
+        sinscal_server::store::Role::Station,
+        None,
+    )
+    .expect_err("no database there");
     assert!(e.to_string().contains("no database"), "{e}");
     assert!(!typo.exists(), "nothing is created");
 }

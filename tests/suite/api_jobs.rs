@@ -9,9 +9,9 @@ use std::time::Duration;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
-use sinscal::jobs::{JobEnd, Outcome};
-use sinscal::model::ErrorParameters;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::ErrorParameters;
+use sinscal_server::jobs::{JobEnd, Outcome};
 
 async fn upload_long(app: &TestApp) -> (Value, tempfile::TempDir) {
     let dir = tempfile::tempdir().unwrap();
@@ -124,7 +124,7 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
     }
     let winner = app.get_result(r["run_id"].as_str().unwrap()).await;
     // A wakes up and tries to write: fenced out, on every path.
-    let fake = sinscal::calib::CalibrationResult {
+    let fake = sinscal_core::calib::CalibrationResult {
         estimator: "stale".into(),
         ..Default::default()
     };
@@ -133,7 +133,7 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
         .complete_job(
             &a,
             &fake,
-            sinscal::store::OnInadequate {
+            sinscal_server::store::OnInadequate {
                 queue_diagnose: true,
                 max_attempts: 3
             }
@@ -166,7 +166,7 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     let data = tempfile::tempdir().unwrap();
     let mut config = test_config(data.path(), 1);
     config.shutdown_grace = Duration::from_millis(0);
-    let app = sinscal::server::Application::build(config.clone())
+    let app = sinscal_server::server::Application::build(config.clone())
         .await
         .unwrap();
     let admin = app.first_admin_token().unwrap().to_string();
@@ -218,14 +218,16 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     server.await.unwrap().unwrap();
 
     // Handed back: queued again, the interrupted attempt not counted.
-    let app = sinscal::server::Application::build(config).await.unwrap();
+    let app = sinscal_server::server::Application::build(config)
+        .await
+        .unwrap();
     let store = app.store();
     let job = store
         .get_job(r["job_id"].as_str().unwrap())
         .await
         .unwrap()
         .unwrap();
-    assert_eq!(job.state, sinscal::store::JobState::Queued);
+    assert_eq!(job.state, sinscal_server::store::JobState::Queued);
     assert_eq!(job.attempts, 0);
     assert_eq!(
         app.runner().try_run_next_job(0).await.unwrap(),

@@ -10,9 +10,9 @@ use std::time::Duration;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
-use sinscal::model::Effects;
-use sinscal::sim::SimConfig;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::Effects;
+use sinscal_core::sim::SimConfig;
 
 async fn upload_and_calibrate(app: &TestApp, serial: &str, cfg: &SimConfig) -> String {
     let dir = tempfile::tempdir().unwrap();

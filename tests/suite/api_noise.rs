@@ -11,7 +11,7 @@ use std::time::Duration;
 use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
+use sinscal_core::io::data::DataFormat;
 
 /// The endpoint on an uploaded simulated run: the engineer reads the
 /// analysis, ARW and VRW within 10 %; an unknown run is 404, no token 401,

@@ -8,7 +8,7 @@ use std::io::Write;
 
 use common::*;
 use reqwest::StatusCode;
-use sinscal::io::data::DataFormat;
+use sinscal_core::io::data::DataFormat;
 
 const HEADER: &str = "t,dthx,dthy,dthz,dvx,dvy,dvz\n";
 
@@ -513,7 +513,7 @@ async fn roles_are_enforced_and_a_full_queue_answers_503() {
     assert_eq!(app.get_job(job_id).await["state"], "cancelled");
     assert_eq!(
         app.runner.try_run_next_job(0).await.unwrap(),
-        sinscal::jobs::Outcome::Empty
+        sinscal_server::jobs::Outcome::Empty
     );
 
     // A revoked token stops working.

@@ -6,12 +6,12 @@
 
 use crate::table1_support;
 
-use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::sources::calibrate_in_memory;
-use sinscal::calib::{CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity};
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::calib::plan::{plan, PlanInput};
+use sinscal_core::calib::sources::calibrate_in_memory;
+use sinscal_core::calib::{CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
 use table1_support::assert_within_table1;
 
 fn config(

@@ -4,13 +4,13 @@
 use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use sinscal::calib::sources::{SimSource, SliceSource};
-use sinscal::calib::{estimate, CalibError, EstimateOptions, RunInfo};
-use sinscal::io::meta::RunMetadata;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::pipeline::calibrate_file;
-use sinscal::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
+use sinscal_core::calib::sources::{SimSource, SliceSource};
+use sinscal_core::calib::{estimate, CalibError, EstimateOptions, RunInfo};
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::Site;
+use sinscal_core::pipeline::calibrate_file;
+use sinscal_core::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
 
 fn short_run(scheme: Scheme) -> SimConfig {
     SimConfig {
@@ -134,10 +134,10 @@ fn a_few_positions_leave_parameters_flagged_as_poorly_observable() {
 fn bad_data_mid_run_fails_the_calibration_naming_the_line() {
     let dir = tempfile::tempdir().unwrap();
     let cfg = short_run(Scheme::builtin("ten-position", 30.0).unwrap());
-    let files = sinscal::io::run::write_simulated_run(
+    let files = sinscal_core::io::run::write_simulated_run(
         &cfg,
         dir.path(),
-        sinscal::io::data::DataFormat::Csv,
+        sinscal_core::io::data::DataFormat::Csv,
         false,
         "U-1",
     )

@@ -10,10 +10,10 @@ use crate::diagnosis_support;
 use crate::table1_support;
 
 use diagnosis_support::{by_hand, config, nine_plus_nine, strong_effects, HAND_RATE_HZ};
-use sinscal::calib::sources::calibrate_in_memory;
-use sinscal::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions};
-use sinscal::model::Effects;
-use sinscal::sim::SimConfig;
+use sinscal_core::calib::sources::calibrate_in_memory;
+use sinscal_core::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions};
+use sinscal_core::model::Effects;
+use sinscal_core::sim::SimConfig;
 use table1_support::assert_within_table1;
 
 /// The test runs at 100 Hz, by hand or on a turntable.

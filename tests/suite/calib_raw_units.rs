@@ -11,14 +11,14 @@
 use crate::table1_support;
 
 use rand::SeedableRng;
-use sinscal::calib::segment::{SegmentKind, Segmenter};
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::RunSegment;
-use sinscal::calib::{CalibError, CalibrationResult, DetectOptions, EstimateOptions};
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::sim::trajectory::Motion;
-use sinscal::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
+use sinscal_core::calib::segment::{SegmentKind, Segmenter};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::RunSegment;
+use sinscal_core::calib::{CalibError, CalibrationResult, DetectOptions, EstimateOptions};
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::trajectory::Motion;
+use sinscal_core::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
 use table1_support::{assert_within_table1, worst_against_table1};
 
 fn config(params: ErrorParameters, attitude: [f64; 3], seed: u64) -> SimConfig {

@@ -7,12 +7,12 @@
 //! Run: `ten-position-9+9`, 200 s dwells at 20 Hz (about 4 300 s), the
 //! paper's truth, navigation-grade white noise.
 
-use sinscal::calib::result::NoiseSource;
-use sinscal::calib::sources::calibrate_in_memory;
-use sinscal::calib::{CalibrationResult, EstimateOptions, NoiseDensity};
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
+use sinscal_core::calib::result::NoiseSource;
+use sinscal_core::calib::sources::calibrate_in_memory;
+use sinscal_core::calib::{CalibrationResult, EstimateOptions, NoiseDensity};
+use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
 
 /// A navigation-grade ring-laser unit: 1″ and 1e-4 m/s pulses, bias
 /// instability 0.002 deg/h and 5 µg (the worst case), random walk,

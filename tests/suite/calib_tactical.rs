@@ -9,12 +9,12 @@
 use std::sync::atomic::AtomicBool;
 
 use rand::SeedableRng;
-use sinscal::calib::sources::calibrate_in_memory;
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{EstimateOptions, RunInfo};
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::calib::sources::calibrate_in_memory;
+use sinscal_core::calib::sources::SimSource;
+use sinscal_core::calib::{EstimateOptions, RunInfo};
+use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
 
 /// Not a whole number of pre-scan blocks or filter windows.
 const DWELL_S: f64 = 300.03;
@@ -98,7 +98,7 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
 /// navigation-grade noise; σ came out up to 8× too large).
 #[test]
 fn measured_noise_is_the_simulated_noise_when_turns_start_between_blocks() {
-    use sinscal::calib::prescan::prescan;
+    use sinscal_core::calib::prescan::prescan;
     let site = Site::REFERENCE;
     let run = RunInfo {
         site,

@@ -12,17 +12,17 @@
 
 use std::sync::atomic::AtomicBool;
 
-use sinscal::calib::prescan::prescan;
-use sinscal::calib::sources::SliceSource;
-use sinscal::calib::{
+use sinscal_core::calib::prescan::prescan;
+use sinscal_core::calib::sources::SliceSource;
+use sinscal_core::calib::{
     estimate, CalibError, CalibrationResult, DetectOptions, EstimateOptions, NoiseDensity, RunInfo,
 };
-use sinscal::diagnose::{DiagnoseOptions, Verdict};
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::noise::{analyse, NoiseOptions, Span, Stretches};
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
-use sinscal::Record;
+use sinscal_core::diagnose::{DiagnoseOptions, Verdict};
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::noise::{analyse, NoiseOptions, Span, Stretches};
+use sinscal_core::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
+use sinscal_core::Record;
 
 /// Nominal rate of the calibrated runs, Hz, and fine records per nominal
 /// step.
@@ -202,7 +202,7 @@ fn jittered_stamps_and_a_gap_at_rest_calibrate_as_the_even_run_and_a_gap_in_a_tu
 /// stamps as the white one does, under its own noise model (given, so
 /// that the comparison is of the stamps' handling alone: the model a fit
 /// finds on a run this short moves with the cut, see the bench figures in
-/// the README).
+/// docs/FIGURES.md, "Real sensors").
 ///
 /// Without pulses: two cuts of a pulsed run carry different quantization
 /// errors (the remainder at each record's end depends on where the
@@ -331,7 +331,7 @@ fn the_noise_analysis_reads_jittered_stamps_and_a_gap_at_rest_as_the_even_run() 
 fn the_discrepancy_workflow_bridges_a_gap_at_rest_and_refuses_one_in_a_turn() {
     let jittered = grouped(&fine_records(), jittered_size);
     let diagnose = |records: &[Record]| {
-        sinscal::diagnose::diagnose(
+        sinscal_core::diagnose::diagnose(
             &SliceSource(records),
             &RunInfo {
                 site: Site::REFERENCE,

@@ -3,9 +3,9 @@
 
 use std::process::Command;
 
-use sinscal::io::data::{DataFormat, RecordReader};
-use sinscal::io::meta::{read_json, RunMetadata, Truth};
-use sinscal::sim::simulate;
+use sinscal_core::io::data::{DataFormat, RecordReader};
+use sinscal_core::io::meta::{read_json, RunMetadata, Truth};
+use sinscal_core::sim::simulate;
 
 /// Runs `cmd`, which must succeed (its stderr shown if not), and returns
 /// what it printed.
@@ -433,9 +433,9 @@ fn compensate_and_export_write_files_the_readers_take() {
 /// printed; a result with no temperature refused with the way out named.
 #[test]
 fn thermal_fits_results_at_their_temperatures() {
-    use sinscal::calib::result::RunTemperature;
-    use sinscal::calib::{CalibrationResult, ParameterEstimate};
-    use sinscal::model::PARAMETERS;
+    use sinscal_core::calib::result::RunTemperature;
+    use sinscal_core::calib::{CalibrationResult, ParameterEstimate};
+    use sinscal_core::model::PARAMETERS;
     let dir = tempfile::tempdir().unwrap();
     let mut args = Vec::new();
     for (k, t) in [0.0, 25.0, 50.0].into_iter().enumerate() {

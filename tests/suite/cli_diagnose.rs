@@ -7,8 +7,8 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use serde_json::Value;
-use sinscal::io::meta::{read_json, Truth};
-use sinscal::model::PARAMETERS;
+use sinscal_core::io::meta::{read_json, Truth};
+use sinscal_core::model::PARAMETERS;
 
 fn sinscal() -> Command {
     Command::new(env!("CARGO_BIN_EXE_sinscal"))

@@ -8,16 +8,16 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use nalgebra::{Matrix3, Vector3};
-use sinscal::calib::{EstimateOptions, Progress};
-use sinscal::compensation::{CompensationFile, Provenance};
-use sinscal::io::data::{DataFormat, RecordReader};
-use sinscal::io::meta::RunMetadata;
-use sinscal::io::run::write_simulated_run;
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::pipeline::{calibrate_file, compensate_file, CompensateTarget};
-use sinscal::record::Record;
-use sinscal::sim::{simulate, Noise, Scheme, SimConfig};
+use sinscal_core::calib::{EstimateOptions, Progress};
+use sinscal_core::compensation::{CompensationFile, Provenance};
+use sinscal_core::io::data::{DataFormat, RecordReader};
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::pipeline::{calibrate_file, compensate_file, CompensateTarget};
+use sinscal_core::record::Record;
+use sinscal_core::sim::{simulate, Noise, Scheme, SimConfig};
 
 const ARW_DEG_RT_H: f64 = 0.0003;
 const VRW_UG_RT_HZ: f64 = 5.0;

@@ -3,14 +3,14 @@
 //! the σ computed from the motion alone agrees with the σ of the filter
 //! run over simulated records, parameter by parameter, within 5 %.
 
-use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::{EstimateOptions, NoiseDensity};
-use sinscal::design::information::scheme_information;
-use sinscal::design::{objective_settings, DesignRequest};
-use sinscal::model::PARAMETERS;
-use sinscal::nav::Site;
-use sinscal::sim::scheme::SchemeRef;
-use sinscal::sim::{HandTurns, Scheme};
+use sinscal_core::calib::plan::{plan, PlanInput};
+use sinscal_core::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::design::information::scheme_information;
+use sinscal_core::design::{objective_settings, DesignRequest};
+use sinscal_core::model::PARAMETERS;
+use sinscal_core::nav::Site;
+use sinscal_core::sim::scheme::SchemeRef;
+use sinscal_core::sim::{HandTurns, Scheme};
 
 fn nav_axis_scheme() -> Scheme {
     let s: SchemeRef = serde_json::from_str(
@@ -110,9 +110,9 @@ fn the_objective_matches_plan_for_turns_by_hand() {
 /// and 42 % short for the least visible g-sensitivity and gyro drift.
 #[test]
 fn the_objective_predicts_the_workflow_s_detection_thresholds() {
-    use sinscal::design::detect::{naming_bar, Detection};
-    use sinscal::design::DetectGoal;
-    use sinscal::diagnose::thresholds_before_data;
+    use sinscal_core::design::detect::{naming_bar, Detection};
+    use sinscal_core::design::DetectGoal;
+    use sinscal_core::diagnose::thresholds_before_data;
     use std::sync::atomic::AtomicBool;
 
     let scheme = Scheme::builtin("ten-position", 300.0).unwrap();

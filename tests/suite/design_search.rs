@@ -2,15 +2,15 @@
 //! objective and by `plan`'s filter over simulated records, beats the
 //! built-in schemes on the same goal, and refuses what it cannot do.
 
-use sinscal::calib::plan::{plan, PlanInput};
-use sinscal::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::calib::plan::{plan, PlanInput};
+use sinscal_core::calib::{EstimateOptions, NoiseDensity};
 use std::sync::atomic::AtomicBool;
 use std::sync::OnceLock;
 
-use sinscal::design::detect::DETECT_MARGIN;
-use sinscal::design::{design, Axes, Design, DesignRequest, DetectGoal, Target};
-use sinscal::diagnose::thresholds_before_data;
-use sinscal::nav::Site;
+use sinscal_core::design::detect::DETECT_MARGIN;
+use sinscal_core::design::{design, Axes, Design, DesignRequest, DetectGoal, Target};
+use sinscal_core::diagnose::thresholds_before_data;
+use sinscal_core::nav::Site;
 
 /// Table 1 × 5 at tactical-grade noise, searched to 8 turns rather than
 /// the default 24: no scheme of fewer than 7 turns reaches every
@@ -20,7 +20,7 @@ use sinscal::nav::Site;
 /// What the tests read (the goal met, the prediction against `plan`'s
 /// filter, the comparison, the frames, the refusals, the effect named)
 /// holds at any depth; designs at the default depth are the bench's
-/// (`benches/design.rs`, README "Scheme design").
+/// (`benches/design.rs`, docs/FIGURES.md "Scheme design").
 fn tactical() -> DesignRequest {
     DesignRequest {
         target: Some(Target::table1().tightened(0.2)),
@@ -129,7 +129,7 @@ fn impossible_requests_are_refused_with_a_reason() {
 #[test]
 fn an_effect_to_detect_changes_the_scheme_until_the_workflow_names_it() {
     let goal: DetectGoal = "gyro_g_sensitivity=0.7deg/h/g".parse().unwrap();
-    let threshold = |scheme: &sinscal::sim::Scheme| {
+    let threshold = |scheme: &sinscal_core::sim::Scheme| {
         thresholds_before_data(
             &PlanInput {
                 scheme: scheme.clone(),

@@ -15,12 +15,12 @@
 use crate::diagnosis_support;
 
 use diagnosis_support::*;
-use sinscal::diagnose::candidates::values_in;
-use sinscal::diagnose::Verdict;
-use sinscal::model::effects::{BiasDrift, LeverArms};
-use sinscal::model::Effects;
-use sinscal::sim::scheme::{Axis, Rotate, Step};
-use sinscal::sim::Scheme;
+use sinscal_core::diagnose::candidates::values_in;
+use sinscal_core::diagnose::Verdict;
+use sinscal_core::model::effects::{BiasDrift, LeverArms};
+use sinscal_core::model::Effects;
+use sinscal_core::sim::scheme::{Axis, Rotate, Step};
+use sinscal_core::sim::Scheme;
 
 fn table_turns(name: &str, turns: &[(Axis, f64)], dwell_s: f64) -> Scheme {
     let mut steps = vec![Step::Dwell { dwell_s }];
@@ -111,7 +111,7 @@ fn ambiguous_then_parted(seed: u64) {
         rep2.verdict
     );
     let truth = values_in(&cfg2.effects, &rep2.named_candidates[0]).unwrap();
-    let lib = sinscal::diagnose::candidates::library();
+    let lib = sinscal_core::diagnose::candidates::library();
     let cand = lib
         .iter()
         .find(|c| c.name == rep2.named_candidates[0])

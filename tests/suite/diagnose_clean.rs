@@ -4,8 +4,8 @@
 use crate::diagnosis_support;
 
 use diagnosis_support::*;
-use sinscal::diagnose::Verdict;
-use sinscal::model::Effects;
+use sinscal_core::diagnose::Verdict;
+use sinscal_core::model::Effects;
 
 #[test]
 fn clean_runs_name_nothing() {
@@ -42,7 +42,7 @@ fn clean_runs_name_nothing() {
 /// (`cargo bench --bench diagnose_detect -- --real --clean-only`).
 #[test]
 fn a_real_units_clean_runs_name_nothing() {
-    use sinscal::calib::result::NoiseSource;
+    use sinscal_core::calib::result::NoiseSource;
     let seeds = [1u64, 4];
     let reps = on_both_cores(&seeds, |&seed| {
         let mut cfg = config(nine_plus_nine(300.0), Effects::none(), seed);

@@ -6,8 +6,8 @@
 use crate::diagnosis_support;
 
 use diagnosis_support::*;
-use sinscal::model::effects::{BiasDrift, LeverArms};
-use sinscal::model::Effects;
+use sinscal_core::model::effects::{BiasDrift, LeverArms};
+use sinscal_core::model::Effects;
 
 #[test]
 fn accel_delay_is_named() {

@@ -15,10 +15,10 @@
 use crate::diagnosis_support;
 
 use diagnosis_support::*;
-use sinscal::diagnose::{DiagnoseReport, Remainder, Verdict};
-use sinscal::model::effects::LeverArms;
-use sinscal::model::Effects;
-use sinscal::sim::SimConfig;
+use sinscal_core::diagnose::{DiagnoseReport, Remainder, Verdict};
+use sinscal_core::model::effects::LeverArms;
+use sinscal_core::model::Effects;
+use sinscal_core::sim::SimConfig;
 
 /// The paper's 9+9 scheme turned by hand, dwells of `dwell_s`.
 fn hand_turned(dwell_s: f64, effects: Effects, seed: u64) -> SimConfig {

@@ -6,10 +6,10 @@
 use crate::diagnosis_support;
 
 use diagnosis_support::*;
-use sinscal::diagnose::Verdict;
-use sinscal::model::Effects;
-use sinscal::sim::scheme::{Axis, Frame, Step};
-use sinscal::sim::SimConfig;
+use sinscal_core::diagnose::Verdict;
+use sinscal_core::model::Effects;
+use sinscal_core::sim::scheme::{Axis, Frame, Step};
+use sinscal_core::sim::SimConfig;
 
 fn off_heading(effects: Effects, seed: u64) -> SimConfig {
     SimConfig {
@@ -18,7 +18,7 @@ fn off_heading(effects: Effects, seed: u64) -> SimConfig {
     }
 }
 
-fn assert_reconstructed_in_n(rep: &sinscal::diagnose::DiagnoseReport, cfg: &SimConfig) {
+fn assert_reconstructed_in_n(rep: &sinscal_core::diagnose::DiagnoseReport, cfg: &SimConfig) {
     let truth: Vec<(Axis, f64)> = cfg
         .scheme
         .steps

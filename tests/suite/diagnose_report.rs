@@ -7,14 +7,14 @@
 use crate::diagnosis_support;
 
 use diagnosis_support::*;
-use sinscal::calib::plan::PlanInput;
-use sinscal::calib::NoiseDensity;
-use sinscal::diagnose::candidates::{add_effect, library};
-use sinscal::diagnose::detect::DetectionThreshold;
-use sinscal::diagnose::thresholds_before_data;
-use sinscal::diagnose::{DiagnoseReport, Verdict};
-use sinscal::model::Effects;
-use sinscal::sim::SimConfig;
+use sinscal_core::calib::plan::PlanInput;
+use sinscal_core::calib::NoiseDensity;
+use sinscal_core::diagnose::candidates::{add_effect, library};
+use sinscal_core::diagnose::detect::DetectionThreshold;
+use sinscal_core::diagnose::thresholds_before_data;
+use sinscal_core::diagnose::{DiagnoseReport, Verdict};
+use sinscal_core::model::Effects;
+use sinscal_core::sim::SimConfig;
 use std::sync::OnceLock;
 
 fn close(a: f64, b: f64, what: &str) {
@@ -59,7 +59,7 @@ fn assert_sane(rep: &DiagnoseReport) {
     }
     // The segments partition the gap: their χ² and expectations sum to
     // the first step's (before) and give the final z (after).
-    let sum = |segs: &[sinscal::diagnose::SegmentGap]| {
+    let sum = |segs: &[sinscal_core::diagnose::SegmentGap]| {
         let chi2: f64 = segs.iter().map(|s| s.chi2).sum();
         let dof: f64 = segs.iter().map(|s| s.dof).sum();
         (chi2, dof)

@@ -11,12 +11,12 @@ use crate::diagnosis_support;
 use std::sync::atomic::AtomicBool;
 
 use diagnosis_support::*;
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::{CalibError, RecordSource, RunInfo};
-use sinscal::diagnose::{diagnose, DiagnoseOptions};
-use sinscal::model::effects::LeverArms;
-use sinscal::model::Effects;
-use sinscal::Record;
+use sinscal_core::calib::sources::SimSource;
+use sinscal_core::calib::{CalibError, RecordSource, RunInfo};
+use sinscal_core::diagnose::{diagnose, DiagnoseOptions};
+use sinscal_core::model::effects::LeverArms;
+use sinscal_core::model::Effects;
+use sinscal_core::Record;
 
 #[test]
 fn a_lever_arm_across_the_axes_is_named_as_cross_axis() {

@@ -7,12 +7,12 @@ use std::path::Path;
 
 use flate2::write::GzEncoder;
 use flate2::Compression;
-use sinscal::io::data::{
+use sinscal_core::io::data::{
     CsvWriter, DataError, DataFormat, F64leWriter, Position, ReadLimits, RecordReader,
     RecordWriter, WriteOptions, RECORD_BYTES,
 };
-use sinscal::record::DataKind;
-use sinscal::Record;
+use sinscal_core::record::DataKind;
+use sinscal_core::Record;
 
 const RATE_HZ: f64 = 100.0;
 const HEADER: &str = "t,dthx,dthy,dthz,dvx,dvy,dvz";

@@ -17,10 +17,10 @@ use crate::model_check_support;
 use std::thread;
 
 use model_check_support::*;
-use sinscal::calib::sources::calibrate_in_memory;
-use sinscal::calib::{EstimateOptions, ModelCheck};
-use sinscal::model::Effects;
-use sinscal::sim::SimConfig;
+use sinscal_core::calib::sources::calibrate_in_memory;
+use sinscal_core::calib::{EstimateOptions, ModelCheck};
+use sinscal_core::model::Effects;
+use sinscal_core::sim::SimConfig;
 
 /// The model check of `cfg`'s run, calibrated as `model_check_support`'s
 /// `check` does (without the cross-check), from its records simulated
@@ -38,7 +38,7 @@ fn check(cfg: &SimConfig) -> ModelCheck {
 }
 
 /// Checks of `cfgs` on both cores.
-fn checks(cfgs: Vec<sinscal::sim::SimConfig>) -> Vec<ModelCheck> {
+fn checks(cfgs: Vec<sinscal_core::sim::SimConfig>) -> Vec<ModelCheck> {
     let half = cfgs.len().div_ceil(2);
     let (a, b) = cfgs.split_at(half);
     thread::scope(|s| {
@@ -50,9 +50,9 @@ fn checks(cfgs: Vec<sinscal::sim::SimConfig>) -> Vec<ModelCheck> {
 }
 
 fn clean_runs_pass(
-    noise: sinscal::sim::Noise,
+    noise: sinscal_core::sim::Noise,
     seeds: std::ops::RangeInclusive<u64>,
-    scheme: impl Fn(u64) -> sinscal::sim::Scheme,
+    scheme: impl Fn(u64) -> sinscal_core::sim::Scheme,
     rate: f64,
 ) {
     let cfgs = seeds
@@ -164,7 +164,7 @@ fn every_effect_at_twice_the_low_end_is_flagged_in_every_run() {
 /// drift as drifts at rest, largest there, that grow over the run.
 #[test]
 fn findings_say_where_the_misfit_lies() {
-    use sinscal::calib::model_check::Shape;
+    use sinscal_core::calib::model_check::Shape;
     let cases = low_end_effects(2.0, 600.0);
     let lever = cases.iter().find(|c| c.name == "accel_lever_arm").unwrap();
     let c = check(&config(

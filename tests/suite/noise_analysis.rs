@@ -11,10 +11,10 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde_json::Value;
 
-use sinscal::model::units::{DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
-use sinscal::noise::fit::FLICKER_FLOOR;
-use sinscal::noise::{analyse, NoiseError, NoiseOptions, NoiseReport, Span, Stretches, Term};
-use sinscal::Record;
+use sinscal_core::model::units::{DEG_PER_H, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
+use sinscal_core::noise::fit::FLICKER_FLOOR;
+use sinscal_core::noise::{analyse, NoiseError, NoiseOptions, NoiseReport, Span, Stretches, Term};
+use sinscal_core::Record;
 
 /// √h in s^½.
 const RT_HOUR_S: f64 = 60.0;

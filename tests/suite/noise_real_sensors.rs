@@ -4,9 +4,9 @@
 
 use crate::noise_analysis::{nothing, value, Axis, StaticRun};
 
-use sinscal::model::units::{ARCSEC, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
-use sinscal::noise::departures::Cause;
-use sinscal::noise::TermStatus;
+use sinscal_core::model::units::{ARCSEC, DEG_PER_RT_H, UG, UG_PER_RT_HZ};
+use sinscal_core::noise::departures::Cause;
+use sinscal_core::noise::TermStatus;
 
 const RATE_HZ: f64 = 20.0;
 

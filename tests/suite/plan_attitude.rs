@@ -9,13 +9,13 @@ use crate::diagnosis_support;
 
 use diagnosis_support::nav_turns;
 use nalgebra::Vector3;
-use sinscal::calib::plan::{plan, Plan, PlanInput};
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::{EstimateOptions, NoiseDensity};
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::attitude::{dcm_to_rotvec, rotvec_to_dcm};
-use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::calib::plan::{plan, Plan, PlanInput};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal_core::nav::attitude::{dcm_to_rotvec, rotvec_to_dcm};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
 
 const RATE_HZ: f64 = 20.0;
 

@@ -15,8 +15,8 @@ use std::time::{Duration, Instant};
 use common::*;
 use rand::{Rng, SeedableRng};
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
-use sinscal::model::ErrorParameters;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::model::ErrorParameters;
 use sqlx::Row;
 
 /// Starts `sinscal serve` on a free port; returns it and the admin token

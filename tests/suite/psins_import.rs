@@ -8,10 +8,10 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::process::Command;
 
-use sinscal::io::data::{DataFormat, RecordReader};
-use sinscal::io::meta::RunMetadata;
-use sinscal::io::psins::import_psins;
-use sinscal::model::units::ARCSEC;
+use sinscal_core::io::data::{DataFormat, RecordReader};
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::psins::import_psins;
+use sinscal_core::model::units::ARCSEC;
 
 const G: f64 = 9.780327;
 const GYRO_SCALE: [f64; 3] = [0.1, 0.1, 0.2];

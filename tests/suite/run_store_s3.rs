@@ -17,10 +17,10 @@ use common::{problem, short_run, spawn_app_with};
 use reqwest::StatusCode;
 use serde_json::Value;
 use sha2::{Digest, Sha256};
-use sinscal::io::data::DataFormat;
-use sinscal::metrics::Metrics;
-use sinscal::runfiles::RunFiles;
-use sinscal::runstore::RunStore;
+use sinscal_core::io::data::DataFormat;
+use sinscal_server::metrics::Metrics;
+use sinscal_server::runfiles::RunFiles;
+use sinscal_server::runstore::RunStore;
 
 const PREFIX: &str = "fleet/a";
 

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 use common::*;
 use rand::{Rng, SeedableRng};
 use serde_json::Value;
-use sinscal::io::data::DataFormat;
+use sinscal_core::io::data::DataFormat;
 
 /// What a process of the deployment is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -3,14 +3,14 @@
 //! a closed form, and each SPEC §3 effect on a case with a closed form.
 
 use nalgebra::{Matrix3, Vector3};
-use sinscal::model::effects::{BiasDrift, LeverArms};
-use sinscal::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::earth::OMEGA_IE;
-use sinscal::nav::Site;
-use sinscal::sim::scheme::{Axis, Frame, Rotate, Scheme, Step};
-use sinscal::sim::{simulate, Noise, SimConfig};
-use sinscal::Record;
+use sinscal_core::model::effects::{BiasDrift, LeverArms};
+use sinscal_core::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::earth::OMEGA_IE;
+use sinscal_core::nav::Site;
+use sinscal_core::sim::scheme::{Axis, Frame, Rotate, Scheme, Step};
+use sinscal_core::sim::{simulate, Noise, SimConfig};
+use sinscal_core::Record;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 const RATE_HZ: f64 = 100.0;

@@ -7,19 +7,19 @@ use std::f64::consts::{PI, TAU};
 use std::process::Command;
 
 use nalgebra::{Matrix3, Rotation3, Unit, Vector3};
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::EstimateOptions;
-use sinscal::io::data::{DataFormat, RecordReader};
-use sinscal::io::meta::{read_json, Truth};
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::units::ARCSEC;
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::attitude::attitude_difference_n;
-use sinscal::nav::earth::OMEGA_IE;
-use sinscal::nav::{Site, Strapdown};
-use sinscal::sim::scheme::{Flip, Step};
-use sinscal::sim::trajectory::Motion;
-use sinscal::sim::{simulate, HandTurns, Noise, Scheme, SchemeRef, SimConfig};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::EstimateOptions;
+use sinscal_core::io::data::{DataFormat, RecordReader};
+use sinscal_core::io::meta::{read_json, Truth};
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::units::ARCSEC;
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal_core::nav::attitude::attitude_difference_n;
+use sinscal_core::nav::earth::OMEGA_IE;
+use sinscal_core::nav::{Site, Strapdown};
+use sinscal_core::sim::scheme::{Flip, Step};
+use sinscal_core::sim::trajectory::Motion;
+use sinscal_core::sim::{simulate, HandTurns, Noise, Scheme, SchemeRef, SimConfig};
 
 fn config(scheme: Scheme, rate_hz: f64, params: ErrorParameters, noise: Noise) -> SimConfig {
     SimConfig {

@@ -10,19 +10,19 @@ use std::sync::atomic::AtomicBool;
 use nalgebra::{Matrix3, Vector3};
 use sha2::{Digest, Sha256};
 
-use sinscal::io::data::DataFormat;
-use sinscal::io::meta::{read_json, Truth};
-use sinscal::io::run::write_simulated_run;
-use sinscal::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, UG};
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::attitude::rotvec_to_dcm;
-use sinscal::nav::Site;
-use sinscal::noise::fit::FLICKER_FLOOR;
-use sinscal::noise::{analyse, NoiseOptions, NoiseReport, Span, Stretches};
-use sinscal::sim::vibration::FloorVibration;
-use sinscal::sim::wander::BiasWander;
-use sinscal::sim::{simulate, Gap, Noise, Scheme, SimConfig, Trajectory, Vibration};
-use sinscal::Record;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::meta::{read_json, Truth};
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, UG};
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::attitude::rotvec_to_dcm;
+use sinscal_core::nav::Site;
+use sinscal_core::noise::fit::FLICKER_FLOOR;
+use sinscal_core::noise::{analyse, NoiseOptions, NoiseReport, Span, Stretches};
+use sinscal_core::sim::vibration::FloorVibration;
+use sinscal_core::sim::wander::BiasWander;
+use sinscal_core::sim::{simulate, Gap, Noise, Scheme, SimConfig, Trajectory, Vibration};
+use sinscal_core::Record;
 
 /// √h in s^½.
 const RT_HOUR_S: f64 = 60.0;

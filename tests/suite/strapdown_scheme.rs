@@ -3,11 +3,11 @@
 //! scheme, and the unit must stay at rest.
 
 use nalgebra::Vector3;
-use sinscal::model::units::ARCSEC;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::attitude::attitude_difference_n;
-use sinscal::nav::{Site, Strapdown};
-use sinscal::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
+use sinscal_core::model::units::ARCSEC;
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::attitude::attitude_difference_n;
+use sinscal_core::nav::{Site, Strapdown};
+use sinscal_core::sim::{simulate, Noise, Scheme, SchemeRef, SimConfig};
 
 struct Outcome {
     attitude_error_arcsec: f64,

@@ -9,11 +9,11 @@ use crate::thermal_support;
 
 use std::sync::atomic::AtomicBool;
 
-use sinscal::calib::sources::SimSource;
-use sinscal::calib::RunInfo;
-use sinscal::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
-use sinscal::model::thermal::{TemperatureHistory, ThermalTruth};
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::calib::sources::SimSource;
+use sinscal_core::calib::RunInfo;
+use sinscal_core::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
+use sinscal_core::model::thermal::{TemperatureHistory, ThermalTruth};
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
 
 /// The paper's 9+9 scheme with 120 s dwells (~45 min) at 20 Hz,
 /// navigation-grade noise, the chamber ramp above; `thermal` the unit's.

@@ -13,15 +13,15 @@ use crate::thermal_support;
 
 use std::sync::atomic::AtomicBool;
 
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions};
-use sinscal::compensation::thermal::ThermalTerms;
-use sinscal::compensation::CompensationFile;
-use sinscal::io::data::DataFormat;
-use sinscal::io::meta::RunMetadata;
-use sinscal::io::run::write_simulated_run;
-use sinscal::model::ErrorParameters;
-use sinscal::pipeline::{calibrate_file, compensate_file, CompensateTarget};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions};
+use sinscal_core::compensation::thermal::ThermalTerms;
+use sinscal_core::compensation::CompensationFile;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::ErrorParameters;
+use sinscal_core::pipeline::{calibrate_file, compensate_file, CompensateTarget};
 use thermal_support::*;
 
 #[test]

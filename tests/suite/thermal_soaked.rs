@@ -9,9 +9,9 @@
 use crate::table1_support;
 use crate::thermal_support;
 
-use sinscal::calib::{CalibrationResult, ParameterEstimate};
-use sinscal::model::{ErrorParameters, PARAMETERS};
-use sinscal::thermal::{fit_thermal_model, ThermalError};
+use sinscal_core::calib::{CalibrationResult, ParameterEstimate};
+use sinscal_core::model::{ErrorParameters, PARAMETERS};
+use sinscal_core::thermal::{fit_thermal_model, ThermalError};
 use thermal_support::*;
 
 #[test]

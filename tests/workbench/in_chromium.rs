@@ -12,7 +12,7 @@ use crate::common::browser::{screenshot_path, Browser};
 use crate::common::{short_run, spawn_app, SimRun, TestApp};
 use reqwest::StatusCode;
 use serde_json::json;
-use sinscal::io::data::DataFormat;
+use sinscal_core::io::data::DataFormat;
 
 const LOAD: Duration = Duration::from_secs(10);
 const CALIBRATION: Duration = Duration::from_secs(240);
@@ -67,7 +67,7 @@ async fn sign_in(b: &Browser, origin: &str, token: &str) {
 async fn run_queued_jobs(app: &TestApp) {
     while !matches!(
         app.runner.try_run_next_job(0).await.unwrap(),
-        sinscal::jobs::Outcome::Empty
+        sinscal_server::jobs::Outcome::Empty
     ) {}
 }
 

@@ -8,7 +8,7 @@ use std::time::Duration;
 use crate::common::pages::{location, set_cookie};
 use crate::common::{short_run, spawn_app, TestApp};
 use reqwest::StatusCode;
-use sinscal::io::data::DataFormat;
+use sinscal_core::io::data::DataFormat;
 
 const CALIBRATION: Duration = Duration::from_secs(240);
 

@@ -11,15 +11,15 @@ use std::time::{Duration, Instant};
 
 use reqwest::{Response, StatusCode};
 use serde_json::Value;
-use sinscal::config::Config;
-use sinscal::io::data::DataFormat;
-use sinscal::io::run::write_simulated_run;
-use sinscal::jobs::JobRunner;
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::server::Application;
-use sinscal::sim::{Noise, Scheme, SimConfig};
-use sinscal::store::Store;
+use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::run::write_simulated_run;
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
+use sinscal_server::config::Config;
+use sinscal_server::jobs::JobRunner;
+use sinscal_server::server::Application;
+use sinscal_server::store::Store;
 
 pub mod pages;
 pub mod postgres;
@@ -132,12 +132,12 @@ pub struct SimRun {
 
 /// The result of calibrating `run`'s file directly (default options, as a
 /// worker does), for comparing with what a server stored.
-pub fn calibrate_directly(run: &SimRun) -> sinscal::calib::CalibrationResult {
-    let meta = sinscal::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
-    sinscal::pipeline::calibrate_file(
+pub fn calibrate_directly(run: &SimRun) -> sinscal_core::calib::CalibrationResult {
+    let meta = sinscal_core::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
+    sinscal_core::pipeline::calibrate_file(
         &run.data,
         &meta,
-        &sinscal::calib::EstimateOptions::default(),
+        &sinscal_core::calib::EstimateOptions::default(),
         &mut |_| {},
         &std::sync::atomic::AtomicBool::new(false),
     )

@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use object_store::aws::{AmazonS3, AmazonS3Builder};
 use object_store::path::Path as Key;
 use object_store::{ObjectStore, PutPayload};
-use sinscal::runstore::{RunStoreSpec, S3Location};
+use sinscal_server::runstore::{RunStoreSpec, S3Location};
 
 /// What the tests tell a machine without an S3 server.
 const INSTALL: &str = "the run-store tests need an S3-compatible server: install moto's \

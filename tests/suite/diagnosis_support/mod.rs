@@ -6,15 +6,15 @@
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
-use sinscal::calib::sources::SliceSource;
-use sinscal::calib::RunInfo;
-use sinscal::diagnose::candidates::values_in;
-use sinscal::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{Effects, ErrorParameters, Group, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{scheme, simulate, HandTurns, Noise, Scheme, SimConfig};
-use sinscal::Record;
+use sinscal_core::calib::sources::SliceSource;
+use sinscal_core::calib::RunInfo;
+use sinscal_core::diagnose::candidates::values_in;
+use sinscal_core::diagnose::{diagnose, DiagnoseOptions, DiagnoseReport};
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{scheme, simulate, HandTurns, Noise, Scheme, SimConfig};
+use sinscal_core::Record;
 
 /// The test runs: the paper's 9+9 scheme with its 600 s dwells at 20 Hz
 /// (the noise densities, not the rate, set the information, so 20 Hz
@@ -95,7 +95,7 @@ pub fn by_hand(nominal: &Scheme, effects: Effects, seed: u64) -> SimConfig {
 /// 5 ms delay.
 pub fn strong_effects() -> Effects {
     Effects {
-        accel_lever_arm: Some(sinscal::model::effects::LeverArms {
+        accel_lever_arm: Some(sinscal_core::model::effects::LeverArms {
             x: [0.0, 10.0, 20.0],
             y: [30.0, 0.0, 40.0],
             z: [50.0, 60.0, 0.0],
@@ -123,7 +123,7 @@ pub fn both_ways(dwell_s: f64) -> Scheme {
             {{"rotate": {{"axis": "z", "angle_deg": -180}}}}, {{"dwell_s": {d}}}]"#,
         d = dwell_s
     );
-    let more: Vec<sinscal::sim::scheme::Step> = serde_json::from_str(&text).unwrap();
+    let more: Vec<sinscal_core::sim::scheme::Step> = serde_json::from_str(&text).unwrap();
     s.steps.extend(more);
     s.name = "ten-position-both-ways".into();
     s
@@ -206,7 +206,7 @@ pub fn acceptance(rep: &DiagnoseReport, cfg: &SimConfig, expect: &[&str]) -> Acc
         return Acceptance { failed, notes };
     }
     for (name, cand_name) in expect.iter().zip(&rep.named_candidates) {
-        let cand = sinscal::diagnose::candidates::library()
+        let cand = sinscal_core::diagnose::candidates::library()
             .into_iter()
             .find(|c| c.name == cand_name && c.effect == *name)
             .unwrap();

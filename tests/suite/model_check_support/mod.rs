@@ -8,12 +8,12 @@
 // crate that includes this module declares `diagnosis_support` beside it).
 pub use super::diagnosis_support::{both_ways, nine_plus_nine};
 
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::{CalibrationResult, EstimateOptions, ModelCheck};
-use sinscal::model::effects::{BiasDrift, LeverArms};
-use sinscal::model::{Effects, ErrorParameters};
-use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::{CalibrationResult, EstimateOptions, ModelCheck};
+use sinscal_core::model::effects::{BiasDrift, LeverArms};
+use sinscal_core::model::{Effects, ErrorParameters};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
 
 /// Navigation grade (the reference scenario's noise).
 pub fn navigation_grade() -> Noise {
@@ -46,7 +46,7 @@ pub fn real_navigation_grade(seed: u64) -> Noise {
     n.accel_bias_instability_ug = log_uniform(1.0, 5.0);
     n.gyro_rrw_deg_h_rt_h = log_uniform(0.0001, 0.0005);
     n.accel_rw_ug_rt_h = log_uniform(1.0, 3.0);
-    n.vibration = Some(sinscal::sim::Vibration {
+    n.vibration = Some(sinscal_core::sim::Vibration {
         rms_ug: 30.0,
         band_hz: [2.0, 9.0],
     });
@@ -59,7 +59,7 @@ pub fn nine_plus_nine_by_hand(dwell_s: f64, seed: u64) -> Scheme {
     Scheme::by_hand(
         &nine_plus_nine(dwell_s),
         seed,
-        &sinscal::sim::HandTurns::default(),
+        &sinscal_core::sim::HandTurns::default(),
     )
     .unwrap()
 }

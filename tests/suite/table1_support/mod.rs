@@ -4,9 +4,9 @@
 // Each test binary that includes this uses part of it.
 #![allow(dead_code)]
 
-use sinscal::calib::CalibrationResult;
-use sinscal::model::params::paper_accuracy;
-use sinscal::model::{ErrorParameters, Group, PARAMETERS};
+use sinscal_core::calib::CalibrationResult;
+use sinscal_core::model::params::paper_accuracy;
+use sinscal_core::model::{ErrorParameters, Group, PARAMETERS};
 
 /// Asserts every parameter is within its Table 1 bound of the truth.
 ///

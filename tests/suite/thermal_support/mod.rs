@@ -5,14 +5,14 @@
 
 use std::collections::BTreeMap;
 
-use sinscal::calib::sources::calibrate_simulated;
-use sinscal::calib::thermal_states::RunThermal;
-use sinscal::calib::EstimateOptions;
-use sinscal::model::thermal::{TemperatureHistory, ThermalTruth};
-use sinscal::model::{Effects, ErrorParameters, PARAMETERS};
-use sinscal::nav::Site;
-use sinscal::sim::{Noise, Scheme, SimConfig};
-use sinscal::thermal::{SoakedRun, ThermalModel, REFERENCE_C};
+use sinscal_core::calib::sources::calibrate_simulated;
+use sinscal_core::calib::thermal_states::RunThermal;
+use sinscal_core::calib::EstimateOptions;
+use sinscal_core::model::thermal::{TemperatureHistory, ThermalTruth};
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
+use sinscal_core::nav::Site;
+use sinscal_core::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::thermal::{SoakedRun, ThermalModel, REFERENCE_C};
 
 /// The chamber temperatures of the soaks, °C.
 pub const SOAK_C: [f64; 5] = [-20.0, 5.0, 25.0, 45.0, 65.0];

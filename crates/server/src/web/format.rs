@@ -1,0 +1,70 @@
+//! How numbers and times read on a page: enough digits for a parameter
+//! known to a few ppm, no more, and times in UTC as the API gives them.
+
+use sinscal_core::accept::VerdictStatus;
+
+/// A value with `digits` significant digits, without exponent for the
+/// magnitudes calibration parameters have (1e-4 .. 1e6), with one beyond.
+pub fn sig(v: f64, digits: usize) -> String {
+    if !v.is_finite() {
+        return "—".into();
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let mag = v.abs().log10().floor() as i32;
+    if !(-4..=6).contains(&mag) {
+        return format!("{:.*e}", digits.saturating_sub(1), v);
+    }
+    let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// Unix ms as `2026-12-02 14:05 UTC`.
+pub fn time(ms: i64) -> String {
+    chrono::DateTime::from_timestamp_millis(ms)
+        .map(|t| t.format("%Y-%m-%d %H:%M UTC").to_string())
+        .unwrap_or_else(|| "—".into())
+}
+
+/// Unix ms as a date.
+pub fn date(ms: i64) -> String {
+    chrono::DateTime::from_timestamp_millis(ms)
+        .map(|t| t.format("%Y-%m-%d").to_string())
+        .unwrap_or_else(|| "—".into())
+}
+
+/// A verdict as words and the CSS class that colours it.
+pub fn verdict(status: Option<VerdictStatus>) -> (&'static str, &'static str) {
+    match status {
+        Some(VerdictStatus::Accepted) => ("accepted", "ok"),
+        Some(VerdictStatus::Rejected) => ("rejected", "bad"),
+        Some(VerdictStatus::NeedsReview) => ("needs review", "warn"),
+        None => ("not judged", "none"),
+    }
+}
+
+/// The first part of an id, enough to tell runs apart on a page.
+pub fn short_id(id: &str) -> &str {
+    id.get(..8).unwrap_or(id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn significant_digits() {
+        assert_eq!(sig(0.012345, 3), "0.0123");
+        assert_eq!(sig(-512.34, 4), "-512.3");
+        assert_eq!(sig(123456.0, 3), "123456");
+        assert_eq!(sig(2.5e-7, 2), "2.5e-7");
+        assert_eq!(sig(f64::NAN, 3), "—");
+    }
+
+    #[test]
+    fn times_are_utc() {
+        assert_eq!(time(0), "1970-01-01 00:00 UTC");
+        assert_eq!(date(86_400_000), "1970-01-02");
+    }
+}
