@@ -395,11 +395,6 @@ impl SystematicFilter {
         Ok(self.information_cholesky()?.solve(&self.h))
     }
 
-    /// Prior σ of each parameter (SI): the unit of the scaled states.
-    pub fn scale(&self) -> &[f64] {
-        &self.scale
-    }
-
     /// Parameter estimates (SI) and their 1-σ (SI) over the `elapsed_s`
     /// seconds walked: a wandering bias as its mean over that time (SPEC
     /// §2a; the whole run at the end).
@@ -486,11 +481,6 @@ impl SystematicFilter {
         let cross = &cov_ps * d.transpose();
         cov = &cov + &cross + cross.transpose() + &d * cov_ss * d.transpose();
         Ok((p, (&cov + cov.transpose()) * 0.5))
-    }
-
-    /// 1-σ of the bias-free navigation errors.
-    pub fn navigation_sigma(&self) -> [f64; NAV] {
-        std::array::from_fn(|i| self.nav.p[(i, i)].max(0.0).sqrt())
     }
 }
 

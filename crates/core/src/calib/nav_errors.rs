@@ -77,10 +77,6 @@ impl NavErrors {
         self.x.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.x.is_empty()
-    }
-
     /// The wander components, in state order.
     pub fn wander(&self) -> &[WanderComponent] {
         &self.wander
