@@ -142,17 +142,20 @@ impl Metrics {
     }
 
     /// The Prometheus text exposition (format 0.0.4), with the database's
-    /// job counts.
-    pub fn render(&self, job_counts: &std::collections::BTreeMap<String, i64>) -> String {
+    /// job counts: those queued, and each state's by its name.
+    pub fn render<'a>(
+        &self,
+        queued: i64,
+        jobs_by_state: impl Iterator<Item = (&'a str, i64)>,
+    ) -> String {
         let inner = self.inner.lock().expect("metrics lock");
         let mut s = String::new();
-        let queued = job_counts.get("queued").copied().unwrap_or(0);
         let _ = writeln!(s, "# HELP sinscal_queue_depth Jobs waiting for a worker.");
         let _ = writeln!(s, "# TYPE sinscal_queue_depth gauge");
         let _ = writeln!(s, "sinscal_queue_depth {queued}");
         let _ = writeln!(s, "# HELP sinscal_jobs Jobs by state.");
         let _ = writeln!(s, "# TYPE sinscal_jobs gauge");
-        for (state, n) in job_counts {
+        for (state, n) in jobs_by_state {
             let _ = writeln!(s, "sinscal_jobs{{state=\"{state}\"}} {n}");
         }
         let _ = writeln!(

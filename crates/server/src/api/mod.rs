@@ -34,7 +34,7 @@ use self::error::{problem_response, ApiError, PROBLEM_JSON};
 use crate::config::Config;
 use crate::metrics::Metrics;
 use crate::runstore::RunStore;
-use crate::store::Store;
+use crate::store::{JobState, Store};
 
 /// The OpenAPI document at the repository root: what the server serves is
 /// what CI checks the server against.
@@ -291,7 +291,10 @@ async fn metrics(State(st): State<AppState>, auth: Auth) -> Result<Response, Api
             header::CONTENT_TYPE,
             "text/plain; version=0.0.4; charset=utf-8",
         )],
-        st.metrics.render(&counts),
+        st.metrics.render(
+            counts.of(JobState::Queued),
+            counts.iter().map(|(state, n)| (state.as_str(), n)),
+        ),
     )
         .into_response())
 }

@@ -2,8 +2,6 @@
 //! its parameters across runs (the seed paper's Table 2, for any number of
 //! runs).
 
-use std::collections::BTreeMap;
-
 use axum::extract::rejection::{PathRejection, QueryRejection};
 use axum::extract::{Path, Query, State};
 use axum::routing::get;
@@ -14,7 +12,7 @@ use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
-use crate::store::{Review, UnitFilter, UnitSummary};
+use crate::store::{JobCounts, Review, UnitFilter, UnitSummary};
 use sinscal_core::accept::VerdictStatus;
 use sinscal_core::io::meta::{validate_product, validate_serial};
 use sinscal_core::model::PARAMETERS;
@@ -92,7 +90,7 @@ pub struct UnitDetail {
     #[serde(flatten)]
     pub unit: UnitView,
     /// The unit's jobs by state.
-    pub jobs: BTreeMap<String, i64>,
+    pub jobs: JobCounts,
 }
 
 #[derive(Debug, Deserialize)]

@@ -51,11 +51,60 @@ pub(super) struct StateCount {
     n: i64,
 }
 
-/// Counts keyed by the state's name (the JSON key and metrics label).
-pub(super) fn by_state_name(rows: Vec<StateCount>) -> BTreeMap<String, i64> {
-    rows.into_iter()
-        .map(|c| (c.state.as_str().to_string(), c.n))
-        .collect()
+/// Jobs per state: what the queue's gauges and a unit's page show. Only
+/// the states counted are present; JSON is an object keyed by the states'
+/// names in their alphabetical order (the order of the metrics' labels).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct JobCounts(BTreeMap<&'static str, (JobState, i64)>);
+
+impl JobCounts {
+    /// Every state, each with no job.
+    fn zero() -> JobCounts {
+        JobCounts(
+            JobState::ALL
+                .iter()
+                .map(|&s| (s.as_str(), (s, 0)))
+                .collect(),
+        )
+    }
+
+    fn add(&mut self, rows: Vec<StateCount>) {
+        for c in rows {
+            self.0.insert(c.state.as_str(), (c.state, c.n));
+        }
+    }
+
+    /// Jobs in `state` (0 when not counted).
+    pub fn of(&self, state: JobState) -> i64 {
+        self.0.get(state.as_str()).map_or(0, |&(_, n)| n)
+    }
+
+    /// The states counted, by name, with their counts.
+    pub fn iter(&self) -> impl Iterator<Item = (JobState, i64)> + '_ {
+        self.0.values().copied()
+    }
+
+    /// How many states are counted.
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+}
+
+impl serde::Serialize for JobCounts {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_map(self.0.iter().map(|(name, (_, n))| (name, n)))
+    }
+}
+
+/// Counts of the states present in `rows`.
+pub(super) fn by_state(rows: Vec<StateCount>) -> JobCounts {
+    let mut counts = JobCounts::default();
+    counts.add(rows);
+    counts
 }
 
 /// Jobs waiting for a worker, on either pool or inside a transaction.
@@ -82,15 +131,12 @@ impl Store {
     }
 
     /// Jobs per state (every state present, zero included).
-    pub async fn job_counts(&self) -> Result<BTreeMap<String, i64>, StoreError> {
-        let mut counts: BTreeMap<String, i64> = JobState::ALL
-            .iter()
-            .map(|s| (s.as_str().to_string(), 0))
-            .collect();
+    pub async fn job_counts(&self) -> Result<JobCounts, StoreError> {
+        let mut counts = JobCounts::zero();
         let rows = sqlx::query_as("SELECT state, COUNT(*) AS n FROM jobs GROUP BY state")
             .fetch_all(&self.read)
             .await?;
-        counts.extend(by_state_name(rows));
+        counts.add(rows);
         Ok(counts)
     }
 

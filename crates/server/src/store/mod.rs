@@ -47,7 +47,7 @@ pub use db::{now_ms, DatabaseUrl, Store};
 pub use dialect::{Backend, JOBS_CHANNEL};
 pub use error::{is_storage_full_io, StoreError};
 pub use hints::JobHints;
-pub use jobs::{CalibrationRequeued, DiagnoseQueued, JobRow};
+pub use jobs::{CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};
 pub use queue::{Claim, Fence, OnInadequate};

@@ -429,7 +429,7 @@ mod tests {
         );
         assert_eq!(row.error.as_deref(), Some("e"));
         let counts = store.job_counts().await.unwrap();
-        assert_eq!(counts["dead_letter"], 1);
+        assert_eq!(counts.of(JobState::DeadLetter), 1);
         assert_eq!(counts.len(), JobState::ALL.len());
     }
 

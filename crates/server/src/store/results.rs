@@ -8,7 +8,7 @@ use sqlx::FromRow;
 
 use super::db::{Store, WriteTx};
 use super::error::StoreError;
-use super::jobs::by_state_name;
+use super::jobs::{by_state, JobCounts};
 use super::kinds::OptionalFlag;
 use super::runs::{insert_unit_and_run, NewRun};
 use super::spread::{self, ParamSpread, SpreadAccumulator};
@@ -205,7 +205,7 @@ impl Store {
     }
 
     /// Jobs of a unit's runs per state.
-    pub async fn unit_job_counts(&self, serial: &str) -> Result<BTreeMap<String, i64>, StoreError> {
+    pub async fn unit_job_counts(&self, serial: &str) -> Result<JobCounts, StoreError> {
         let rows = sqlx::query_as(
             "SELECT j.state, COUNT(*) AS n FROM jobs j JOIN runs r ON r.id = j.run_id
              WHERE r.unit_serial = $1 GROUP BY j.state",
@@ -213,7 +213,7 @@ impl Store {
         .bind(serial)
         .fetch_all(&self.read)
         .await?;
-        Ok(by_state_name(rows))
+        Ok(by_state(rows))
     }
 
     /// A unit's calibrated runs with `from <= run_time < to`, oldest first,
