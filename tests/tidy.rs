@@ -514,3 +514,38 @@ fn the_lock_reader_follows_versioned_names() {
     // sqlx is locked once, and reaches tokio through its runtime feature.
     assert!(closure(&graph, "sqlx").contains("tokio"));
 }
+
+/// `calib`'s public modules are its face, as docs/ARCHITECTURE.md lists
+/// them; any other file is `pub(crate)` or private.
+#[test]
+fn calib_shows_only_its_face() {
+    const FACE: [&str; 7] = [
+        "model_check",
+        "plan",
+        "prescan",
+        "result",
+        "segment",
+        "sources",
+        "thermal_states",
+    ];
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("crates/core/src/calib/mod.rs")).unwrap();
+    let code = code_only(&text);
+    let public: Vec<&str> = code
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("pub mod ")?.strip_suffix(';'))
+        .map(str::trim)
+        .collect();
+    let extra: Vec<_> = public.iter().filter(|m| !FACE.contains(m)).collect();
+    assert!(
+        extra.is_empty(),
+        "calib's public modules beyond its face: {extra:?}"
+    );
+    let doc = std::fs::read_to_string(root.join("docs/ARCHITECTURE.md")).unwrap();
+    for m in FACE {
+        assert!(
+            doc.contains(&format!("`{m}`")),
+            "docs/ARCHITECTURE.md does not name calib's public module {m}"
+        );
+    }
+}
