@@ -52,10 +52,14 @@ impl VerdictStatus {
 impl std::str::FromStr for VerdictStatus {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
+        let all = VerdictStatus::ALL.map(VerdictStatus::as_str);
         VerdictStatus::ALL
             .into_iter()
             .find(|v| v.as_str() == s)
-            .ok_or_else(|| format!("unknown verdict {s:?}: accepted, rejected or needs_review"))
+            .ok_or_else(|| {
+                let (last, rest) = all.split_last().expect("three verdicts");
+                format!("unknown verdict {s:?}: {} or {last}", rest.join(", "))
+            })
     }
 }
 
@@ -299,6 +303,17 @@ pub fn judge(ev: &Evidence<'_>, product: Product<'_>) -> Verdict {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_verdict_reads_its_own_spelling_and_names_the_others_when_refused() {
+        for v in VerdictStatus::ALL {
+            assert_eq!(v.to_string().parse::<VerdictStatus>(), Ok(v));
+        }
+        assert_eq!(
+            "ok".parse::<VerdictStatus>(),
+            Err("unknown verdict \"ok\": accepted, rejected or needs_review".to_string())
+        );
+    }
 
     struct Case {
         values: [f64; N_PARAMS],

@@ -168,6 +168,16 @@ impl JobRunner {
         (self.settings.lease / 3).clamp(Duration::from_millis(100), Duration::from_secs(1))
     }
 
+    /// The heartbeat's clock: its first tick a period from now (the claim
+    /// or the last write has just renewed the lease), late ticks delayed
+    /// rather than bunched.
+    async fn heartbeat_clock(&self) -> tokio::time::Interval {
+        let mut tick = tokio::time::interval(self.heartbeat_every());
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+        tick.tick().await;
+        tick
+    }
+
     /// Claims the next job and runs it to its end, or reports that none is
     /// claimable.
     pub async fn try_run_next_job(&self, worker: usize) -> Result<Outcome, JobError> {
@@ -281,9 +291,7 @@ impl JobRunner {
         Option<StopReason>,
     ) {
         tokio::pin!(task);
-        let mut tick = tokio::time::interval(self.heartbeat_every());
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        tick.tick().await;
+        let mut tick = self.heartbeat_clock().await;
         let mut reason: Option<StopReason> = None;
         let joined = loop {
             tokio::select! {
@@ -322,9 +330,7 @@ impl JobRunner {
     async fn fetch_run_file(&self, claim: &Claim) -> Fetched {
         let fetch = self.settings.run_store.local_copy(&claim.blob_path);
         tokio::pin!(fetch);
-        let mut tick = tokio::time::interval(self.heartbeat_every());
-        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
-        tick.tick().await;
+        let mut tick = self.heartbeat_clock().await;
         loop {
             tokio::select! {
                 fetched = &mut fetch => {
