@@ -319,15 +319,20 @@ where
             }
         }
     }
+    // A worker killed between committing a success and writing its log
+    // line leaves that job's success unlogged: each worker kill may hide at
+    // most one (a worker runs one job at a time), never a second success.
+    let mut unlogged = 0;
     for a in by_run.values() {
-        assert_eq!(
-            succeeded.get(&a.job_id).copied().unwrap_or(0),
-            1,
-            "job {} succeeded {:?} times",
-            a.job_id,
-            succeeded.get(&a.job_id)
-        );
+        let times = succeeded.get(&a.job_id).copied().unwrap_or(0);
+        assert!(times <= 1, "job {} succeeded {times} times", a.job_id);
+        unlogged += usize::from(times == 0);
     }
+    let worker_kills = killed.get("worker").copied().unwrap_or(0);
+    assert!(
+        unlogged <= worker_kills,
+        "{unlogged} successes unlogged, more than the {worker_kills} worker kills explain"
+    );
 
     // The results are the file's own: the uploads differ only by a comment.
     let direct = calibrate_directly(&run);
