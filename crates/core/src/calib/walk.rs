@@ -303,6 +303,7 @@ impl<'a> Around<'a> {
             rate_c_per_s,
             accel_jacobian: jacobian,
             accel_jacobian_inv: jacobian.try_inverse().unwrap_or(jacobian),
+            gyro_jacobian_inv: self.comp.gyro_jacobian_inv(),
         }
     }
 }

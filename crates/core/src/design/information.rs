@@ -139,6 +139,7 @@ fn add_step(
         rate_c_per_s: 0.0,
         accel_jacobian: Matrix3::identity(),
         accel_jacobian_inv: Matrix3::identity(),
+        gyro_jacobian_inv: Matrix3::identity(),
     };
     for (j, &p) in effects.iter().enumerate() {
         let (rows, col_b) = effect_column(p, &motion);

@@ -93,6 +93,12 @@ impl Compensator {
             + Matrix3::from_diagonal(&(self.d_a.component_mul(dv) * (2.0 / dt)))
     }
 
+    /// ∂Δθ/∂Δθ_meas = (I + K_g)⁻¹: what an error sensed at the gyros'
+    /// output becomes in the compensated record.
+    pub fn gyro_jacobian_inv(&self) -> Matrix3<f64> {
+        self.inv_gyro
+    }
+
     /// A compensated copy of `rec`, whose interval is `dt`.
     pub fn record(&self, rec: &Record, dt: f64) -> Record {
         let dtheta = self.gyro(&Vector3::from(rec.dtheta), dt);
