@@ -8,6 +8,14 @@
 //! verdict on the clean runs and with one run's accelerometer bias jumped
 //! by 30 µg.
 //!
+//! `chamber`: the chamber ramps of `thermal_support::ChamberRamp` at a
+//! line's rate (ten-position-9+9, 600 s dwells; rising, falling and
+//! stopping mid-dwell at 100 Hz, rising at 20 Hz), noisy, calibrated as
+//! `sinscal calibrate --thermal` does: RMS err/σ of the thermal
+//! coefficients and the largest |z| per ramp. `quadratic`: the rising
+//! ramp with a quadratic accelerometer bias the in-run states lack, at
+//! growing sizes: how often the model check flags it.
+//!
 //! Then the in-run thermal states over the same seeds: one run of
 //! `ten-position-9+9` three times over (300 s dwells, 4.8 h, 20 Hz) while
 //! the chamber ramps 10 → 50 °C at 0.2 °C/min and holds, calibrated with
@@ -17,6 +25,9 @@
 
 #[path = "../tests/suite/thermal_support/mod.rs"]
 mod thermal_support;
+
+#[path = "thermal/chamber.rs"]
+mod chamber;
 
 use std::time::Instant;
 
@@ -32,13 +43,23 @@ fn main() {
         .skip(1)
         .find_map(|a| a.parse().ok())
         .unwrap_or(20);
-    // `soak` or `ramp` runs one half.
-    let only = |part: &str| std::env::args().any(|a| a == part);
-    if !only("ramp") {
+    // `soak`, `ramp`, `chamber` or `quadratic` runs one part.
+    let parts = ["soak", "ramp", "chamber", "quadratic"];
+    let chosen: Vec<String> = std::env::args()
+        .filter(|a| parts.contains(&a.as_str()))
+        .collect();
+    let run = |part: &str| chosen.is_empty() || chosen.iter().any(|a| a == part);
+    if run("soak") {
         soaks(seeds);
     }
-    if !only("soak") {
+    if run("ramp") {
         ramps(seeds);
+    }
+    if run("chamber") {
+        chamber::ramps(seeds);
+    }
+    if run("quadratic") {
+        chamber::quadratic(seeds);
     }
 }
 

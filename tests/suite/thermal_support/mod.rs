@@ -5,13 +5,15 @@
 
 use std::collections::BTreeMap;
 
+use nalgebra::Matrix3;
 use sinscal_core::calib::sources::calibrate_simulated;
 use sinscal_core::calib::thermal_states::RunThermal;
 use sinscal_core::calib::EstimateOptions;
 use sinscal_core::model::thermal::{TemperatureHistory, ThermalTruth};
 use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal_core::nav::Site;
-use sinscal_core::sim::{Noise, Scheme, SimConfig};
+use sinscal_core::sim::trajectory::Motion;
+use sinscal_core::sim::{Noise, Scheme, SimConfig, Trajectory};
 use sinscal_core::thermal::{SoakedRun, ThermalModel, REFERENCE_C};
 
 /// The chamber temperatures of the soaks, °C.
@@ -215,6 +217,106 @@ pub fn ramp_coefficient_z(thermal: &RunThermal) -> Vec<(String, f64)> {
             format!("gyro_bias_rate {axis}"),
             (got.value - k) / got.sigma,
         ));
+    }
+    out
+}
+
+/// A chamber profile for in-run thermal calibration at a line's rate:
+/// `ten-position-9+9` with 600 s dwells (11 625 s) while the temperature
+/// moves 40 °C over the first 7000 s and then holds (the hold starts
+/// 241.5 s into the twelfth dwell).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChamberRamp {
+    /// 10 → 50 °C.
+    Rising,
+    /// 50 → 10 °C.
+    Falling,
+    /// 10 → 40 °C, stopping at the exact middle of the eighth dwell.
+    StopsMidDwell,
+}
+
+/// The linear coefficients of the unit ramped in [`ChamberRamp`] runs
+/// (per °C, canonical units): larger than [`linear`], the accelerometer
+/// terms tens of µg and ppm over the ramp.
+pub fn chamber_linear() -> BTreeMap<&'static str, f64> {
+    BTreeMap::from([
+        ("gyro_bias_x", 0.0012),
+        ("gyro_bias_y", -0.0008),
+        ("gyro_bias_z", 0.0015),
+        ("gyro_scale_x", 0.6),
+        ("gyro_scale_z", 0.5),
+        ("accel_bias_x", 12.0),
+        ("accel_bias_y", -8.0),
+        ("accel_bias_z", 15.0),
+        ("accel_scale_x", 9.0),
+        ("accel_scale_z", 11.0),
+    ])
+}
+
+/// k of the [`ChamberRamp`] unit, deg/h per (°C/min).
+pub const CHAMBER_GYRO_BIAS_RATE: [f64; 3] = [0.01, -0.008, 0.012];
+
+/// The [`ChamberRamp`] unit's SPEC §3a truth, with quadratic terms
+/// (per °C², canonical units) the in-run states do not carry.
+pub fn chamber_truth(quadratic: &[(&str, f64)]) -> ThermalTruth {
+    let lin = chamber_linear()
+        .into_iter()
+        .map(|(n, v)| (n.to_string(), v))
+        .collect();
+    let quad = quadratic.iter().map(|(n, v)| (n.to_string(), *v)).collect();
+    ThermalTruth::from_canonical(&lin, &quad, CHAMBER_GYRO_BIAS_RATE).unwrap()
+}
+
+/// A [`ChamberRamp`] run at `rate_hz` of the paper's Table 1 unit (at
+/// 25 °C) with the [`chamber_truth`], started 0.2°, 0.1° off level and
+/// 123° off in heading.
+pub fn chamber_config(ramp: ChamberRamp, rate_hz: f64, noise: Noise, seed: u64) -> SimConfig {
+    let scheme = Scheme::builtin("ten-position-9+9", 600.0).unwrap();
+    let trajectory = Trajectory::new(&scheme, &Matrix3::identity(), &Site::REFERENCE).unwrap();
+    let dwells: Vec<_> = trajectory
+        .segments()
+        .iter()
+        .filter(|s| matches!(s.motion, Motion::Dwell))
+        .map(|s| (s.t0, s.t1))
+        .collect();
+    let end = dwells.last().unwrap().1 + 100.0;
+    let (from_c, to_c, stop_s) = match ramp {
+        ChamberRamp::Rising => (10.0, 50.0, 7000.0),
+        ChamberRamp::Falling => (50.0, 10.0, 7000.0),
+        ChamberRamp::StopsMidDwell => (10.0, 40.0, 0.5 * (dwells[7].0 + dwells[7].1)),
+    };
+    SimConfig {
+        site: Site::REFERENCE,
+        sample_rate_hz: rate_hz,
+        scheme,
+        params: ErrorParameters::paper(),
+        effects: Effects::none(),
+        noise,
+        initial_attitude_error_deg: [0.2, 0.1, 123.0],
+        seed,
+        thermal: Some(chamber_truth(&[])),
+        temperature: Some(TemperatureHistory::Points(vec![
+            [0.0, from_c],
+            [stop_s, to_c],
+            [end, to_c],
+        ])),
+    }
+}
+
+/// A [`ChamberRamp`] result's thermal coefficients against the truth:
+/// (name, error, σ, truth) for the 21 linear coefficients and the three
+/// k.
+pub fn chamber_errors(thermal: &RunThermal, truth: &ThermalTruth) -> Vec<(String, f64, f64, f64)> {
+    let mut out = Vec::new();
+    for (i, p) in PARAMETERS.iter().enumerate() {
+        if let Some(l) = thermal.parameters[p.name].linear {
+            let t = truth.linear(i);
+            out.push((format!("{} linear", p.name), l.value - t, l.sigma, t));
+        }
+    }
+    for (axis, k) in ["x", "y", "z"].iter().zip(CHAMBER_GYRO_BIAS_RATE) {
+        let got = thermal.gyro_bias_rate[*axis];
+        out.push((format!("k {axis}"), got.value - k, got.sigma, k));
     }
     out
 }
