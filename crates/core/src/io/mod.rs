@@ -6,5 +6,7 @@ pub mod data;
 pub mod meta;
 pub mod psins;
 pub mod run;
+pub mod serial;
 
 pub use meta::{RunMetadata, Truth};
+pub use serial::UnitSerial;
