@@ -7,6 +7,7 @@
 //! this file):
 //! - `error`: [`StoreError`] and which errors mean a full disk;
 //! - `dialect`: where SQLite and PostgreSQL differ ([`Backend`]);
+//! - `ids`: run and job ids as types ([`RunId`], [`JobId`]);
 //! - `kinds`: the TEXT vocabularies as types ([`Role`], [`JobKind`],
 //!   [`JobState`]);
 //! - `hints`: queued-job notifications to other processes' workers
@@ -32,6 +33,7 @@ mod db;
 mod dialect;
 mod error;
 mod hints;
+mod ids;
 mod jobs;
 mod kinds;
 mod products;
@@ -47,6 +49,7 @@ pub use db::{now_ms, DatabaseUrl, Store};
 pub use dialect::{Backend, JOBS_CHANNEL};
 pub use error::{is_storage_full_io, StoreError};
 pub use hints::JobHints;
+pub use ids::{JobId, RunId};
 pub use jobs::{CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};
