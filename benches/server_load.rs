@@ -28,7 +28,7 @@ use sinscal_core::io::run::write_simulated_run;
 use sinscal_core::model::PARAMETERS;
 use sinscal_server::config::Config;
 use sinscal_server::server::Application;
-use sinscal_server::store::{NewRun, RunFile, Store};
+use sinscal_server::store::{JobId, NewRun, RunFile, RunId, Store};
 
 struct Client {
     http: reqwest::Client,
@@ -163,13 +163,13 @@ async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
                     },
                 );
             }
-            let id = uuid::Uuid::new_v4().to_string();
+            let id = RunId::new();
             let new = NewRun {
-                run_id: id.clone(),
-                job_id: uuid::Uuid::new_v4().to_string(),
-                unit_serial: serial.clone(),
+                run_id: id,
+                job_id: JobId::new(),
+                unit_serial: serial.parse().unwrap(),
                 file: RunFile {
-                    sha256: id.clone(),
+                    sha256: id.to_string(),
                     size_bytes: 0,
                     records: 0,
                     format: "f64le".into(),

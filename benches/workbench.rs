@@ -21,7 +21,7 @@ use sinscal_core::sim::{Noise, Scheme, SimConfig};
 use sinscal_server::config::Config;
 use sinscal_server::jobs::JobRunner;
 use sinscal_server::server::Application;
-use sinscal_server::store::{NewRun, ProductTypeChange, RunFile, Store};
+use sinscal_server::store::{JobId, NewRun, ProductTypeChange, RunFile, RunId, Store};
 
 const RUNS: usize = 100;
 const UNITS: usize = 1000;
@@ -29,13 +29,13 @@ const WARMUP: usize = 20;
 const REQUESTS: usize = 300;
 
 fn new_run(serial: &str, k: usize) -> NewRun {
-    let id = uuid::Uuid::new_v4().to_string();
+    let id = RunId::new();
     NewRun {
-        run_id: id.clone(),
-        job_id: uuid::Uuid::new_v4().to_string(),
-        unit_serial: serial.to_string(),
+        run_id: id,
+        job_id: JobId::new(),
+        unit_serial: serial.parse().unwrap(),
         file: RunFile {
-            sha256: id.clone(),
+            sha256: id.to_string(),
             size_bytes: 0,
             records: 0,
             format: "f64le".into(),

@@ -148,7 +148,7 @@ async fn assert_succeeds(
     assert_eq!(
         outcome,
         sinscal_server::jobs::Outcome::Ran {
-            job_id: job.to_string(),
+            job_id: job.parse().unwrap(),
             end: sinscal_server::jobs::JobEnd::Succeeded
         }
     );

@@ -48,7 +48,7 @@ async fn a_running_job_can_be_cancelled() {
     assert_eq!(
         outcome,
         Outcome::Ran {
-            job_id: job_id.clone(),
+            job_id: job_id.parse().unwrap(),
             end: JobEnd::Cancelled
         }
     );
@@ -223,7 +223,7 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
         .unwrap();
     let store = app.store();
     let job = store
-        .get_job(r["job_id"].as_str().unwrap())
+        .get_job(r["job_id"].as_str().unwrap().parse().unwrap())
         .await
         .unwrap()
         .unwrap();
@@ -232,11 +232,11 @@ async fn shutdown_hands_a_running_job_back_and_a_new_server_finishes_it() {
     assert_eq!(
         app.runner().try_run_next_job(0).await.unwrap(),
         Outcome::Ran {
-            job_id: job.id.clone(),
+            job_id: job.id,
             end: JobEnd::Succeeded
         }
     );
-    assert_eq!(store.get_job(&job.id).await.unwrap().unwrap().attempts, 1);
+    assert_eq!(store.get_job(job.id).await.unwrap().unwrap().attempts, 1);
 }
 
 /// `POST /runs/{id}/calibrate` queues the run's calibration again: the old

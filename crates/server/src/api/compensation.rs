@@ -13,6 +13,7 @@ use serde::Deserialize;
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::{parse_id, AppState};
+use crate::store::RunId;
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::compensation::{CompensationFile, Provenance};
 
@@ -42,9 +43,9 @@ async fn get_compensation(
     query: Result<Query<CompensationQuery>, QueryRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
+    let id: RunId = parse_id(path?.0, "run")?;
     let Query(q) = query?;
-    let file = compensation_of(&st, &id).await?;
+    let file = compensation_of(&st, id).await?;
     Ok(file_response(&file, q.format))
 }
 
@@ -60,14 +61,16 @@ pub(crate) fn file_response(file: &CompensationFile, form: FileForm) -> Response
 
 /// The compensation file of a run's result (the API's and the run page's
 /// download); 404 while the run has no result.
-pub(crate) async fn compensation_of(st: &AppState, id: &str) -> Result<CompensationFile, ApiError> {
-    let id = id.to_string();
-    let run = super::runs::stored_run(st, &id).await?;
-    let Some(json) = st.store.get_result(&id).await? else {
+pub(crate) async fn compensation_of(
+    st: &AppState,
+    id: RunId,
+) -> Result<CompensationFile, ApiError> {
+    let run = super::runs::stored_run(st, id).await?;
+    let Some(json) = st.store.get_result(id).await? else {
         // No result, no compensation: the file does not exist (yet).
         let state = st
             .store
-            .get_job(&run.job_id)
+            .get_job(run.job_id)
             .await?
             .map_or("unknown", |j| j.state.as_str());
         return Err(ApiError::NotFound(format!(
@@ -76,9 +79,9 @@ pub(crate) async fn compensation_of(st: &AppState, id: &str) -> Result<Compensat
         )));
     };
     let provenance = Provenance {
-        unit_serial: Some(run.unit_serial),
+        unit_serial: Some(run.unit_serial.into()),
         source: Some(format!("/api/v1/runs/{id}/result")),
-        run_id: Some(id.clone()),
+        run_id: Some(id.to_string()),
         ..Provenance::default()
     };
     // A stored result is up to half a megabyte of JSON: parsed off the

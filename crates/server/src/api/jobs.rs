@@ -9,12 +9,12 @@ use serde::Serialize;
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::{parse_id, rfc3339, AppState};
-use crate::store::{JobKind, JobRow, JobState, Role};
+use crate::store::{JobId, JobKind, JobRow, JobState, Role, RunId};
 
 #[derive(Serialize)]
 pub struct JobView {
-    pub id: String,
-    pub run_id: String,
+    pub id: JobId,
+    pub run_id: RunId,
     /// calibrate or diagnose.
     pub kind: JobKind,
     /// queued, running, succeeded, failed, dead_letter or cancelled.
@@ -68,13 +68,13 @@ async fn get_job(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<JobView>, ApiError> {
     auth.require(roles::FOLLOW)?;
-    let id = parse_id(path?.0, "job")?;
+    let id: JobId = parse_id(path?.0, "job")?;
     let not_found = || ApiError::NotFound(format!("no job {id}"));
-    let job = st.store.get_job(&id).await?.ok_or_else(not_found)?;
+    let job = st.store.get_job(id).await?.ok_or_else(not_found)?;
     if auth.role == Role::Station {
         let uploader = st
             .store
-            .get_run(&job.run_id)
+            .get_run(job.run_id)
             .await?
             .and_then(|r| r.uploaded_by);
         if !auth.may_read_run(uploader.as_deref()) {
@@ -93,10 +93,10 @@ async fn cancel_job(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<JobView>, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "job")?;
+    let id: JobId = parse_id(path?.0, "job")?;
     let job = st
         .store
-        .cancel_job(&id)
+        .cancel_job(id)
         .await?
         .ok_or_else(|| ApiError::NotFound(format!("no job {id}")))?;
     if job.state.is_settled() {

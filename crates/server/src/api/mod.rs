@@ -216,10 +216,13 @@ pub(crate) fn refuse_while_stopping(st: &AppState) -> Result<(), ApiError> {
     Ok(())
 }
 
-/// Ids are UUIDs made by the server; anything else names nothing.
-pub(crate) fn parse_id(raw: String, what: &str) -> Result<String, ApiError> {
-    uuid::Uuid::parse_str(&raw)
-        .map(|u| u.hyphenated().to_string())
+/// A run's or a job's id from a path segment. Ids are UUIDs made by the
+/// server; anything else names nothing, so it is a 404 as an unknown id
+/// is (not a 400). Parsed in the handler, after the role check, rather
+/// than by axum's `Path` extractor, whose refusal of a malformed segment
+/// would be a 400 with serde's message.
+pub(crate) fn parse_id<T: std::str::FromStr>(raw: String, what: &str) -> Result<T, ApiError> {
+    raw.parse()
         .map_err(|_| ApiError::NotFound(format!("no {what} {raw:?} (ids are UUIDs)")))
 }
 

@@ -19,6 +19,7 @@ use axum::{Json, Router};
 use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::{parse_id, AppState};
+use crate::store::RunId;
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::noise::{NoiseOptions, NoiseReport};
 use sinscal_core::pipeline::noise_file;
@@ -46,13 +47,13 @@ async fn get_noise(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<NoiseReport>, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
-    Ok(Json(analyse_noise(&st, &id).await?))
+    let id: RunId = parse_id(path?.0, "run")?;
+    Ok(Json(analyse_noise(&st, id).await?))
 }
 
 /// The noise analysis of a stored run (the API's answer and the noise
 /// page's), at most `noise_analyses` at once: 503 when all are busy.
-pub(crate) async fn analyse_noise(st: &AppState, id: &str) -> Result<NoiseReport, ApiError> {
+pub(crate) async fn analyse_noise(st: &AppState, id: RunId) -> Result<NoiseReport, ApiError> {
     let run = super::runs::stored_run(st, id).await?;
     let meta = RunMetadata::from_json(run.file.metadata.as_bytes())
         .map_err(|e| ApiError::Internal(format!("stored metadata of run {id}: {e}")))?;

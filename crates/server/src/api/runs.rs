@@ -18,16 +18,18 @@ use super::upload::queue_full;
 use super::{parse_id, refuse_while_stopping, rfc3339, AppState};
 
 use crate::store::{
-    CalibrationRequeued, DiagnoseQueued, JobRow, Review, RunDeletion, RunRow, StoredVerdict,
+    CalibrationRequeued, DiagnoseQueued, JobId, JobRow, Review, RunDeletion, RunId, RunRow,
+    StoredVerdict,
 };
 use sinscal_core::accept::Verdict;
 use sinscal_core::diagnose::DiagnoseReport;
+use sinscal_core::io::UnitSerial;
 
 #[derive(Serialize)]
 pub struct RunView {
-    pub id: String,
-    pub unit_serial: String,
-    pub job_id: String,
+    pub id: RunId,
+    pub unit_serial: UnitSerial,
+    pub job_id: JobId,
     pub sha256: String,
     pub size_bytes: i64,
     pub records: i64,
@@ -55,7 +57,7 @@ pub struct VerdictView {
     #[serde(flatten)]
     pub verdict: Verdict,
     /// The run judged.
-    pub run_id: String,
+    pub run_id: RunId,
     /// The product its metadata names (null: none, no limits applied).
     pub product: Option<String>,
     /// The product type's revision applied (null: no product type).
@@ -128,7 +130,7 @@ pub fn router() -> Router<AppState> {
 }
 
 /// The run `id`, or a 404 naming it (for the readers of every run).
-pub(crate) async fn stored_run(st: &AppState, id: &str) -> Result<RunRow, ApiError> {
+pub(crate) async fn stored_run(st: &AppState, id: RunId) -> Result<RunRow, ApiError> {
     st.store
         .get_run(id)
         .await?
@@ -141,15 +143,19 @@ async fn get_run(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<RunView>, ApiError> {
     auth.require(roles::FOLLOW)?;
-    let id = parse_id(path?.0, "run")?;
-    let run = readable_run(&st, &auth, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    let run = readable_run(&st, &auth, id).await?;
     Ok(Json(RunView::from_row(run)?))
 }
 
 /// The run `id` if `auth` may read it (the API's run view and every page
 /// of a run): a station reads only its own uploads, and any other run is
 /// 404 to it, as an unknown one is.
-pub(crate) async fn readable_run(st: &AppState, auth: &Auth, id: &str) -> Result<RunRow, ApiError> {
+pub(crate) async fn readable_run(
+    st: &AppState,
+    auth: &Auth,
+    id: RunId,
+) -> Result<RunRow, ApiError> {
     st.store
         .get_run(id)
         .await?
@@ -163,14 +169,14 @@ async fn get_result(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
-    let json = result_document(&st, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    let json = result_document(&st, id).await?;
     Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response())
 }
 
 /// A run's result document with its verdict (the API's answer and the run
 /// page's download); 409 while the run has none.
-pub(crate) async fn result_document(st: &AppState, id: &str) -> Result<String, ApiError> {
+pub(crate) async fn result_document(st: &AppState, id: RunId) -> Result<String, ApiError> {
     let run = stored_run(st, id).await?;
     if let Some(json) = st.store.get_result(id).await? {
         // Stored as serialized by the estimator's own types: served as is,
@@ -180,7 +186,7 @@ pub(crate) async fn result_document(st: &AppState, id: &str) -> Result<String, A
     }
     let state = st
         .store
-        .get_job(&run.job_id)
+        .get_job(run.job_id)
         .await?
         .map_or("unknown", |j| j.state.as_str());
     Err(ApiError::Conflict(format!(
@@ -215,14 +221,14 @@ async fn delete_run(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<StatusCode, ApiError> {
     auth.require(roles::ADMIN)?;
-    let id = parse_id(path?.0, "run")?;
-    remove_run(&st, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    remove_run(&st, id).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 
 /// Deletes a run, its file and everything derived from it (the API's
 /// DELETE and the run page's button).
-pub(crate) async fn remove_run(st: &AppState, id: &str) -> Result<(), ApiError> {
+pub(crate) async fn remove_run(st: &AppState, id: RunId) -> Result<(), ApiError> {
     match st.store.delete_run(id).await? {
         RunDeletion::Deleted { blob_path } => {
             // The rows are gone first: a crash before this line, or a
@@ -259,8 +265,8 @@ async fn diagnose_run(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
-    let queued = queue_diagnosis(&st, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    let queued = queue_diagnosis(&st, id).await?;
     let status = if queued.created {
         StatusCode::ACCEPTED
     } else {
@@ -277,8 +283,8 @@ async fn recalibrate_run(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
-    let job = queue_recalibration(&st, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    let job = queue_recalibration(&st, id).await?;
     Ok(job_answer(StatusCode::ACCEPTED, job))
 }
 
@@ -289,12 +295,16 @@ pub(crate) struct QueuedJob {
 }
 
 /// Queues a diagnosis of a run unless one is queued or running already.
-pub(crate) async fn queue_diagnosis(st: &AppState, id: &str) -> Result<QueuedJob, ApiError> {
+pub(crate) async fn queue_diagnosis(st: &AppState, id: RunId) -> Result<QueuedJob, ApiError> {
     refuse_while_stopping(st)?;
-    let job_id = uuid::Uuid::new_v4().hyphenated().to_string();
     match st
         .store
-        .queue_diagnose_job(id, &job_id, st.config.max_attempts, st.config.max_queue)
+        .queue_diagnose_job(
+            id,
+            JobId::new(),
+            st.config.max_attempts,
+            st.config.max_queue,
+        )
         .await?
     {
         DiagnoseQueued::Created(job) => {
@@ -312,7 +322,7 @@ pub(crate) async fn queue_diagnosis(st: &AppState, id: &str) -> Result<QueuedJob
 }
 
 /// Queues a run's calibration again.
-pub(crate) async fn queue_recalibration(st: &AppState, id: &str) -> Result<JobRow, ApiError> {
+pub(crate) async fn queue_recalibration(st: &AppState, id: RunId) -> Result<JobRow, ApiError> {
     refuse_while_stopping(st)?;
     match st
         .store
@@ -335,7 +345,7 @@ pub(crate) async fn queue_recalibration(st: &AppState, id: &str) -> Result<JobRo
 
 /// The latest successful diagnosis report of a run, as stored. 409 while
 /// its diagnose job has not succeeded, 404 if none was ever asked for.
-pub(crate) async fn latest_report(st: &AppState, id: &str) -> Result<String, ApiError> {
+pub(crate) async fn latest_report(st: &AppState, id: RunId) -> Result<String, ApiError> {
     if let Some(json) = st.store.latest_diagnosis(id).await? {
         return Ok(json);
     }
@@ -359,8 +369,8 @@ async fn get_diagnosis(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
-    let json = latest_report(&st, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    let json = latest_report(&st, id).await?;
     // Stored as serialized by the workflow's own types: served as is.
     Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response())
 }
@@ -371,8 +381,8 @@ async fn get_diagnosis_gap_svg(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let id = parse_id(path?.0, "run")?;
-    let json = latest_report(&st, &id).await?;
+    let id: RunId = parse_id(path?.0, "run")?;
+    let json = latest_report(&st, id).await?;
     let report: DiagnoseReport = serde_json::from_str(&json)
         .map_err(|e| ApiError::Internal(format!("stored diagnosis: {e}")))?;
     let svg = sinscal_core::diagnose::plot::gap_svg(&report);

@@ -21,7 +21,7 @@ use super::{parse_time, AppState};
 use sinscal_core::accept::VerdictStatus;
 use sinscal_core::calib::ParameterEstimate;
 use sinscal_core::compensation::{CompensationFile, Provenance};
-use sinscal_core::io::meta::validate_serial;
+use sinscal_core::io::UnitSerial;
 use sinscal_core::thermal::{fit_thermal_model, SoakedRun, ThermalModel};
 
 /// Runs spanning more than this are ramps, not soaks, unless asked for.
@@ -54,8 +54,7 @@ async fn get_thermal(
     query: Result<Query<ThermalQuery>, QueryRejection>,
 ) -> Result<Json<ThermalModel>, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let serial = path?.0;
-    validate_serial(&serial).map_err(ApiError::BadRequest)?;
+    let serial: UnitSerial = path?.0.parse().map_err(ApiError::BadRequest)?;
     let Query(q) = query?;
     Ok(Json(unit_thermal_model(&st, &serial, &q).await?.0))
 }
@@ -78,8 +77,7 @@ async fn get_thermal_compensation(
     query: Result<Query<ThermalCompensationQuery>, QueryRejection>,
 ) -> Result<Response, ApiError> {
     auth.require(roles::ENGINEER)?;
-    let serial = path?.0;
-    validate_serial(&serial).map_err(ApiError::BadRequest)?;
+    let serial: UnitSerial = path?.0.parse().map_err(ApiError::BadRequest)?;
     let Query(q) = query?;
     let filter = ThermalQuery {
         from: q.from,
@@ -89,7 +87,7 @@ async fn get_thermal_compensation(
     };
     let (model, runs) = unit_thermal_model(&st, &serial, &filter).await?;
     let provenance = Provenance {
-        unit_serial: Some(serial.clone()),
+        unit_serial: Some(serial.to_string()),
         source: Some(format!(
             "/api/v1/units/{serial}/thermal: {} runs at {}–{} °C",
             runs.len(),
@@ -110,7 +108,7 @@ async fn get_thermal_compensation(
 /// runs do not span two temperatures.
 pub(crate) async fn unit_thermal_model(
     st: &AppState,
-    serial: &str,
+    serial: &UnitSerial,
     q: &ThermalQuery,
 ) -> Result<(ThermalModel, Vec<SoakedRun>), ApiError> {
     let from = q
@@ -144,7 +142,7 @@ pub(crate) async fn unit_thermal_model(
                 serde_json::from_str(&r.parameters)
                     .map_err(|e| ApiError::Internal(format!("stored result {}: {e}", r.run_id)))?;
             Ok(SoakedRun {
-                label: r.run_id,
+                label: r.run_id.to_string(),
                 temperature_c: r.temperature_c,
                 parameters,
             })

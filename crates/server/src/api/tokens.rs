@@ -103,8 +103,9 @@ async fn revoke_token(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<StatusCode, ApiError> {
     auth.require(roles::ADMIN)?;
-    let id = parse_id(path?.0, "token")?;
-    revoke(&st, &auth, &id).await?;
+    // A token's id is a UUID too, kept as its text.
+    let id: uuid::Uuid = parse_id(path?.0, "token")?;
+    revoke(&st, &auth, &id.to_string()).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 

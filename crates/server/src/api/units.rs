@@ -12,9 +12,10 @@ use super::auth::{roles, Auth};
 use super::error::ApiError;
 use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
-use crate::store::{JobCounts, Review, UnitFilter, UnitSummary};
+use crate::store::{JobCounts, JobId, Review, RunId, UnitFilter, UnitSummary};
 use sinscal_core::accept::VerdictStatus;
-use sinscal_core::io::meta::{validate_product, validate_serial};
+use sinscal_core::io::meta::validate_product;
+use sinscal_core::io::UnitSerial;
 use sinscal_core::model::PARAMETERS;
 
 const MAX_PAGE: i64 = 1000;
@@ -49,7 +50,7 @@ fn page(limit: Option<i64>, offset: Option<i64>) -> Result<(i64, i64), ApiError>
 
 #[derive(Serialize)]
 pub struct UnitView {
-    pub serial: String,
+    pub serial: UnitSerial,
     pub created_at: String,
     pub runs: i64,
     pub calibrated: i64,
@@ -105,8 +106,8 @@ pub struct HistoryQuery {
 
 #[derive(Serialize)]
 pub struct HistoryItem {
-    pub run_id: String,
-    pub job_id: String,
+    pub run_id: RunId,
+    pub job_id: JobId,
     pub run_time: String,
     pub completed_at: String,
     /// The stored JSON, passed through: a page of 100 runs is 2400
@@ -122,7 +123,7 @@ pub struct HistoryItem {
 
 #[derive(Serialize)]
 pub struct History {
-    pub unit_serial: String,
+    pub unit_serial: UnitSerial,
     pub total: i64,
     pub limit: i64,
     pub offset: i64,
@@ -156,7 +157,7 @@ pub struct ParameterRepeatability {
 
 #[derive(Serialize)]
 pub struct Repeatability {
-    pub unit_serial: String,
+    pub unit_serial: UnitSerial,
     /// Calibrated runs the statistics cover.
     pub runs: i64,
     pub parameters: Vec<ParameterRepeatability>,
@@ -171,10 +172,9 @@ pub fn router() -> Router<AppState> {
         .route("/units/{serial}/repeatability", get(repeatability))
 }
 
-fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<String, ApiError> {
-    let serial = path?.0;
-    validate_serial(&serial).map_err(ApiError::BadRequest)?;
-    Ok(serial)
+/// The unit serial of a path; a malformed one is a 400 naming the rule.
+fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<UnitSerial, ApiError> {
+    path?.0.parse().map_err(ApiError::BadRequest)
 }
 
 async fn list_units(

@@ -28,7 +28,8 @@ use super::upload_store::{store_run, Ingested, StoredRun};
 use super::{refuse_while_stopping, AppState};
 use crate::metrics::UploadOutcome;
 use sinscal_core::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
-use sinscal_core::io::meta::{validate_serial, RunMetadata};
+use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::UnitSerial;
 
 /// Header carrying the metadata JSON of a raw (non-multipart) upload.
 pub const METADATA_HEADER: &str = "x-sinscal-metadata";
@@ -308,8 +309,7 @@ pub async fn upload(
     req: Request,
 ) -> Result<Response, ApiError> {
     auth.require(roles::UPLOAD)?;
-    let Path(serial) = path?;
-    validate_serial(&serial).map_err(ApiError::BadRequest)?;
+    let serial: UnitSerial = path?.0.parse().map_err(ApiError::BadRequest)?;
     let Query(query) = query?;
     let _permit = admit(&st).await?;
     let multipart = headers
@@ -324,7 +324,7 @@ pub async fn upload(
         axum::body::Body::from_stream(paced(body, st.config.upload_pace)),
     );
     let outcome = if multipart {
-        receive_multipart(&st, Some(&serial), req).await
+        receive_multipart(&st, Some(serial.as_str()), req).await
     } else {
         let text = match (headers.get(METADATA_HEADER), &query.metadata) {
             (Some(h), _) => h.as_bytes().to_vec(),
@@ -336,7 +336,7 @@ pub async fn upload(
                 )))
             }
         };
-        match parse_metadata(&text, Some(&serial)) {
+        match parse_metadata(&text, Some(serial.as_str())) {
             Ok(meta) => {
                 let body = req
                     .into_body()

@@ -13,9 +13,10 @@ use super::error::ApiError;
 use super::AppState;
 use crate::metrics::UploadOutcome;
 use crate::runfiles::{Pending, RunFiles};
-use crate::store::{now_ms, InsertOutcome, NewRun, Role, RunFile, RunRow};
+use crate::store::{now_ms, InsertOutcome, JobId, NewRun, Role, RunFile, RunId, RunRow};
 use sinscal_core::io::data::DataFormat;
 use sinscal_core::io::meta::RunMetadata;
+use sinscal_core::io::UnitSerial;
 
 /// Shortest run accepted: the estimator needs at least two dwells of 20 s
 /// (one to align on, another attitude to observe anything) and a turn.
@@ -24,8 +25,8 @@ pub(super) const MIN_RUN_SECONDS: f64 = 40.0;
 /// The answer to an upload (202 for a new run, 200 for one already stored).
 #[derive(Debug, Serialize)]
 pub struct UploadAnswer {
-    pub run_id: String,
-    pub job_id: String,
+    pub run_id: RunId,
+    pub job_id: JobId,
     /// False when the same bytes were already stored for this unit.
     pub created: bool,
     pub sha256: String,
@@ -54,8 +55,8 @@ pub fn queue_full() -> ApiError {
 pub struct StoredRun {
     /// False when the same bytes were already stored for this unit.
     pub created: bool,
-    pub run_id: String,
-    pub job_id: String,
+    pub run_id: RunId,
+    pub job_id: JobId,
     pub sha256: String,
 }
 
@@ -109,8 +110,8 @@ fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<StoredRu
     }
     Ok(StoredRun {
         created: false,
-        run_id: run.id.clone(),
-        job_id: run.job_id.clone(),
+        run_id: run.id,
+        job_id: run.job_id,
         sha256: run.file.sha256.clone(),
     })
 }
@@ -121,8 +122,11 @@ pub(super) async fn store_run(
     meta: RunMetadata,
     data: Ingested,
 ) -> Result<StoredRun, ApiError> {
-    let serial = meta.unit_serial.clone();
-    let serial = serial.as_str();
+    // `RunMetadata::from_json` validated it: this parse does not fail.
+    let serial: UnitSerial = meta
+        .unit_serial
+        .parse()
+        .map_err(ApiError::InvalidMetadata)?;
     let (records, gzip) = data.checked.unwrap_or((0, false));
     let span_s = records.saturating_sub(1) as f64 / meta.sample_rate_hz;
     if span_s < MIN_RUN_SECONDS {
@@ -134,27 +138,27 @@ pub(super) async fn store_run(
         )));
     }
     let metadata = serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?;
-    if let Some(existing) = st.store.find_run_by_hash(serial, &data.sha256).await? {
+    if let Some(existing) = st.store.find_run_by_hash(&serial, &data.sha256).await? {
         st.metrics.upload(UploadOutcome::Duplicate);
         return existing_answer(auth, &existing, &metadata);
     }
-    let run_id = uuid::Uuid::new_v4().to_string();
-    let job_id = uuid::Uuid::new_v4().to_string();
+    let run_id = RunId::new();
+    let job_id = JobId::new();
     let ext = match (meta.format, gzip) {
         (DataFormat::Csv, false) => "csv",
         (DataFormat::Csv, true) => "csv.gz",
         (DataFormat::F64le, _) => "bin",
     };
-    let blob_path = RunFiles::blob_path(&run_id, ext);
+    let blob_path = RunFiles::blob_path(&run_id.to_string(), ext);
     // Until the rows commit, the bytes are `stored`'s, deleted on any early
     // return; the sweep covers a crash.
     let stored = st.run_store.commit(data.file, &blob_path).await?;
     // Checked when the metadata was parsed.
     let recorded_at = meta.recorded_at_ms().map_err(ApiError::InvalidMetadata)?;
     let new = NewRun {
-        run_id: run_id.clone(),
-        job_id: job_id.clone(),
-        unit_serial: serial.to_string(),
+        run_id,
+        job_id,
+        unit_serial: serial.clone(),
         file: RunFile {
             sha256: data.sha256.clone(),
             size_bytes: data.size as i64,
@@ -179,7 +183,7 @@ pub(super) async fn store_run(
             stored.keep();
             st.wake.notify_one();
             st.metrics.upload(UploadOutcome::Accepted);
-            tracing::info!(run = %run_id, job = %job_id, unit = serial, bytes = data.size, "run stored");
+            tracing::info!(run = %run_id, job = %job_id, unit = %serial, bytes = data.size, "run stored");
             Ok(StoredRun {
                 created: true,
                 run_id,
@@ -194,7 +198,7 @@ pub(super) async fn store_run(
             st.metrics.upload(UploadOutcome::Duplicate);
             let existing = st
                 .store
-                .get_run(&run_id)
+                .get_run(run_id)
                 .await?
                 .ok_or_else(|| ApiError::Internal(format!("run {run_id} vanished")))?;
             existing_answer(auth, &existing, &metadata)

@@ -17,7 +17,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::metrics::{ClaimOutcome, JobOutcome, Metrics};
 use crate::runstore::{LocalCopy, RunStore};
-use crate::store::{Claim, Fence, JobKind, JobState, OnInadequate, Store, StoreError};
+use crate::store::{Claim, Fence, JobId, JobKind, JobState, OnInadequate, Store, StoreError};
 use sinscal_core::calib::{CalibError, CalibrationResult, EstimateOptions, Progress};
 use sinscal_core::diagnose::{DiagnoseError, DiagnoseOptions};
 use sinscal_core::io::meta::RunMetadata;
@@ -52,7 +52,7 @@ pub enum JobEnd {
 /// What one step of a worker did.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum Outcome {
-    Ran { job_id: String, end: JobEnd },
+    Ran { job_id: JobId, end: JobEnd },
     Empty,
 }
 
@@ -193,7 +193,7 @@ impl JobRunner {
         let Some(claim) = claimed? else {
             return Ok(Outcome::Empty);
         };
-        let job_id = claim.fence.job_id.clone();
+        let job_id = claim.fence.job_id;
         tracing::info!(job = %job_id, run = %claim.run_id, attempt = claim.fence.attempt, "job claimed");
         let started = Instant::now();
         let end = self.run_claimed(&claim).await?;

@@ -369,7 +369,13 @@ async fn backfill_param_values(write: &AnyPool) -> Result<(), StoreError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::store::RunId;
     use sinscal_core::model::PARAMETERS;
+
+    /// The id of the `k`th run a test writes by hand.
+    fn run_id(k: usize) -> RunId {
+        format!("00000000-0000-4000-8000-{k:012}").parse().unwrap()
+    }
 
     /// A database left by the schema before `param_values` (migrations 1–3:
     /// the document inside `results`, per-parameter rows) opens with every
@@ -403,7 +409,7 @@ mod tests {
                     (p.name.to_string(), e)
                 })
                 .collect();
-            let run = format!("run-{k}");
+            let run = run_id(k).to_string();
             sqlx::query(
                 "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip,
                                    blob_path, metadata, run_time, uploaded_at)
@@ -437,10 +443,11 @@ mod tests {
                 .unwrap();
         assert_eq!(missing, 0);
         assert_eq!(
-            store.get_result("run-1").await.unwrap().as_deref(),
+            store.get_result(run_id(1)).await.unwrap().as_deref(),
             Some("{}")
         );
-        let spread = store.repeatability("OLD-1", i64::MIN, None).await.unwrap();
+        let serial = "OLD-1".parse().unwrap();
+        let spread = store.repeatability(&serial, i64::MIN, None).await.unwrap();
         assert_eq!(spread.len(), PARAMETERS.len());
         let s = &spread[0];
         assert_eq!(s.n, 3);
@@ -448,7 +455,7 @@ mod tests {
         // In time order 500.0, 500.4, 500.1: the largest change is 0.4.
         assert!((s.max_change.unwrap() - 0.4).abs() < 1e-9);
         let last2 = store
-            .repeatability("OLD-1", i64::MIN, Some(2))
+            .repeatability(&serial, i64::MIN, Some(2))
             .await
             .unwrap();
         assert_eq!(last2[0].n, 2);

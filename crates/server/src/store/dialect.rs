@@ -5,6 +5,7 @@
 //! `TRUE`/`FALSE`, which both engines read alike). A leaf of `store`.
 
 use super::error::StoreError;
+use super::ids::RunId;
 
 /// The lock key of a unit's rows: its runs, results and verdicts. Keys
 /// are taken in the order run, then unit (a product type's, then its
@@ -14,7 +15,7 @@ pub(super) fn unit_key(serial: &str) -> String {
 }
 
 /// The lock key of a run's jobs.
-pub(super) fn run_key(run_id: &str) -> String {
+pub(super) fn run_key(run_id: RunId) -> String {
     format!("run:{run_id}")
 }
 

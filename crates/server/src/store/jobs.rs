@@ -8,13 +8,14 @@ use sqlx::FromRow;
 use super::db::{now_ms, Store};
 use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
+use super::ids::{JobId, RunId};
 use super::kinds::{Flag, JobKind, JobState};
 use super::verdicts::refresh_unit;
 
 #[derive(Clone, Debug, FromRow)]
 pub struct JobRow {
-    pub id: String,
-    pub run_id: String,
+    pub id: JobId,
+    pub run_id: RunId,
     pub kind: JobKind,
     pub state: JobState,
     pub attempts: i64,
@@ -123,7 +124,7 @@ impl Store {
         count_queued(&self.read).await
     }
 
-    pub async fn get_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+    pub async fn get_job(&self, id: JobId) -> Result<Option<JobRow>, StoreError> {
         Ok(sqlx::query_as("SELECT * FROM jobs WHERE id = $1")
             .bind(id)
             .fetch_optional(&self.read)
@@ -141,7 +142,7 @@ impl Store {
     }
 
     /// A run's most recent diagnose job, if any.
-    pub async fn latest_diagnose_job(&self, run_id: &str) -> Result<Option<JobRow>, StoreError> {
+    pub async fn latest_diagnose_job(&self, run_id: RunId) -> Result<Option<JobRow>, StoreError> {
         Ok(sqlx::query_as(
             "SELECT * FROM jobs WHERE run_id = $1 AND kind = 'diagnose'
              ORDER BY created_at DESC, id DESC LIMIT 1",
@@ -153,7 +154,7 @@ impl Store {
 
     /// Cancels a queued job at once, or asks a running one's worker to stop.
     /// Returns the job afterwards, `None` if there is none.
-    pub async fn cancel_job(&self, id: &str) -> Result<Option<JobRow>, StoreError> {
+    pub async fn cancel_job(&self, id: JobId) -> Result<Option<JobRow>, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
         sqlx::query(
@@ -181,8 +182,8 @@ impl Store {
     /// or the queue is full.
     pub async fn queue_diagnose_job(
         &self,
-        run_id: &str,
-        job_id: &str,
+        run_id: RunId,
+        job_id: JobId,
         max_attempts: i64,
         max_queue: i64,
     ) -> Result<DiagnoseQueued, StoreError> {
@@ -247,7 +248,7 @@ impl Store {
     /// worker of an earlier attempt can never write the new result.
     pub async fn requeue_calibration(
         &self,
-        run_id: &str,
+        run_id: RunId,
         max_attempts: i64,
         max_queue: i64,
     ) -> Result<CalibrationRequeued, StoreError> {
@@ -289,7 +290,7 @@ impl Store {
         )
         .bind(max_attempts)
         .bind(now)
-        .bind(&job.id)
+        .bind(job.id)
         .fetch_one(&mut *tx)
         .await?;
         refresh_unit(&mut tx, &serial, Some((run_time, run_id)), now).await?;
@@ -351,16 +352,15 @@ mod tests {
             .unwrap();
         for kind in JobKind::ALL {
             for state in JobState::ALL {
-                let id = format!("{kind}-{state}");
+                let id = JobId::new().to_string();
                 let row = insert_job(&mut tx, &id, kind, state).await.unwrap();
                 assert_eq!((row.kind, row.state), (kind, state));
             }
         }
-        assert!(insert_job(&mut tx, "bad-state", "calibrate", "paused")
+        let (a, b) = (JobId::new().to_string(), JobId::new().to_string());
+        assert!(insert_job(&mut tx, &a, "calibrate", "paused")
             .await
             .is_err());
-        assert!(insert_job(&mut tx, "bad-kind", "replay", "queued")
-            .await
-            .is_err());
+        assert!(insert_job(&mut tx, &b, "replay", "queued").await.is_err());
     }
 }

@@ -201,20 +201,14 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
-    use crate::store::{NewRun, RunDeletion, RunFile, UnitFilter};
+    use crate::store::{JobId, NewRun, RunDeletion, RunFile, RunId, UnitFilter};
     use sinscal_core::accept::{LimitKind, ReviewReason, VerdictStatus};
     use sinscal_core::calib::ParameterEstimate;
     use sinscal_core::model::PARAMETERS;
 
     /// Seeds a calibrated run of `serial` naming `product`, every parameter
     /// at `value` ± 0.01 σ.
-    async fn seed(
-        store: &Store,
-        serial: &str,
-        product: Option<&str>,
-        k: i64,
-        value: f64,
-    ) -> String {
+    async fn seed(store: &Store, serial: &str, product: Option<&str>, k: i64, value: f64) -> RunId {
         let params: BTreeMap<String, ParameterEstimate> = PARAMETERS
             .iter()
             .map(|p| {
@@ -226,13 +220,13 @@ mod tests {
                 (p.name.to_string(), e)
             })
             .collect();
-        let id = format!("run-{serial}-{k}");
+        let id = RunId::new();
         let new = NewRun {
-            run_id: id.clone(),
-            job_id: format!("job-{serial}-{k}"),
-            unit_serial: serial.into(),
+            run_id: id,
+            job_id: JobId::new(),
+            unit_serial: serial.parse().unwrap(),
             file: RunFile {
-                sha256: id.clone(),
+                sha256: id.to_string(),
                 size_bytes: 0,
                 records: 0,
                 format: "csv".into(),
@@ -250,8 +244,8 @@ mod tests {
         id
     }
 
-    async fn status(store: &Store, run: &str) -> (VerdictStatus, Option<i64>) {
-        let v = store.get_run(run).await.unwrap().unwrap().verdict();
+    async fn status(store: &Store, run: &RunId) -> (VerdictStatus, Option<i64>) {
+        let v = store.get_run(*run).await.unwrap().unwrap().verdict();
         let v = v.unwrap().unwrap();
         (v.status(), v.revision)
     }
@@ -263,7 +257,7 @@ mod tests {
             serial_contains: None,
         };
         let (_, rows) = store.list_units(&filter, 10, 0).await.unwrap();
-        rows.into_iter().map(|u| u.serial).collect()
+        rows.into_iter().map(|u| u.serial.to_string()).collect()
     }
 
     /// Verdicts follow the product type through creation, a change of its
@@ -303,7 +297,7 @@ mod tests {
             .unwrap()
             .is_none());
         // One run cannot judge repeatability; two within the bound can.
-        let first = store.get_run(&a1).await.unwrap().unwrap().verdict();
+        let first = store.get_run(a1).await.unwrap().unwrap().verdict();
         assert_eq!(
             first.unwrap().unwrap().verdict.reasons(),
             [ReviewReason::TooFewRuns { runs: 1, needed: 2 }]
@@ -326,7 +320,7 @@ mod tests {
         assert_eq!(units(&store, VerdictStatus::Rejected).await, ["A"]);
         let (total, rows) = store
             .history(
-                "A",
+                &"A".parse().unwrap(),
                 (i64::MIN, i64::MAX),
                 Some(VerdictStatus::Rejected),
                 10,
@@ -334,13 +328,13 @@ mod tests {
             )
             .await
             .unwrap();
-        assert_eq!((total, rows[0].run_id.as_str()), (1, a2.as_str()));
+        assert_eq!((total, rows[0].run_id), (1, a2));
 
         // A third run judged on all three; deleting the first judges it
         // again on two.
         let a3 = seed(&store, "A", Some("P1"), 3, 1.25).await;
         assert_eq!(status(&store, &a3).await.0, VerdictStatus::Rejected);
-        let deleted = store.delete_run(&a1).await.unwrap();
+        let deleted = store.delete_run(a1).await.unwrap();
         assert!(matches!(deleted, RunDeletion::Deleted { .. }));
         assert_eq!(status(&store, &a3).await.0, VerdictStatus::Accepted);
         let filter = UnitFilter {

@@ -11,9 +11,11 @@ use sqlx::{FromRow, Row};
 use super::db::{now_ms, Store, WriteTx};
 use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
+use super::ids::{JobId, RunId};
 use super::kinds::{Flag, JobKind, JobState};
 use super::results::{insert_result, StoredResult};
 use sinscal_core::calib::CalibrationResult;
+use sinscal_core::io::UnitSerial;
 
 /// The identity of one attempt at a job. Every write a worker makes about
 /// its job must match all three fields: a worker whose lease was reclaimed
@@ -21,7 +23,7 @@ use sinscal_core::calib::CalibrationResult;
 /// over the new attempt.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Fence {
-    pub job_id: String,
+    pub job_id: JobId,
     pub attempt: i64,
     pub owner: String,
 }
@@ -32,8 +34,8 @@ pub struct Claim {
     pub fence: Fence,
     /// What the worker runs.
     pub kind: JobKind,
-    pub run_id: String,
-    pub unit_serial: String,
+    pub run_id: RunId,
+    pub unit_serial: UnitSerial,
     pub run_time: i64,
     pub blob_path: String,
     pub metadata: String,
@@ -69,7 +71,7 @@ impl Fenced {
 
     fn query<'q>(&'q self, fence: &'q Fence) -> sqlx::query::Query<'q, Any, AnyArguments<'q>> {
         sqlx::query(&self.0)
-            .bind(&fence.job_id)
+            .bind(fence.job_id)
             .bind(fence.attempt)
             .bind(&fence.owner)
     }
@@ -78,8 +80,8 @@ impl Fenced {
 /// The job row a claim took.
 #[derive(FromRow)]
 struct Claimed {
-    id: String,
-    run_id: String,
+    id: JobId,
+    run_id: RunId,
     attempts: i64,
     max_attempts: i64,
     kind: JobKind,
@@ -88,7 +90,8 @@ struct Claimed {
 /// What a worker needs of the claimed job's run.
 #[derive(FromRow)]
 struct ClaimedRun {
-    unit_serial: String,
+    #[sqlx(try_from = "String")]
+    unit_serial: UnitSerial,
     run_time: i64,
     blob_path: String,
     metadata: String,
@@ -167,7 +170,7 @@ impl Store {
         let run: ClaimedRun = sqlx::query_as(
             "SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = $1",
         )
-        .bind(&c.run_id)
+        .bind(c.run_id)
         .fetch_one(&mut *tx)
         .await?;
         tx.commit().await?;
@@ -233,11 +236,11 @@ impl Store {
         let Some(mut tx) = self.begin_succeeded(fence, now).await? else {
             return Ok(false);
         };
-        lock_key(self.backend, &mut tx, &run_key(&claim.run_id)).await?;
-        lock_key(self.backend, &mut tx, &unit_key(&claim.unit_serial)).await?;
+        lock_key(self.backend, &mut tx, &run_key(claim.run_id)).await?;
+        lock_key(self.backend, &mut tx, &unit_key(claim.unit_serial.as_str())).await?;
         let stored = StoredResult {
-            run_id: &claim.run_id,
-            job_id: &fence.job_id,
+            run_id: claim.run_id,
+            job_id: fence.job_id,
             unit_serial: &claim.unit_serial,
             run_time: claim.run_time,
             completed_at: now,
@@ -260,12 +263,12 @@ impl Store {
                  WHERE NOT EXISTS (SELECT 1 FROM jobs WHERE run_id = $6 AND kind = 'diagnose'
                                    AND state IN ('queued', 'running'))",
             )
-            .bind(uuid::Uuid::new_v4().to_string())
-            .bind(&claim.run_id)
+            .bind(JobId::new())
+            .bind(claim.run_id)
             .bind(on_inadequate.max_attempts)
             .bind(now)
             .bind(now)
-            .bind(&claim.run_id)
+            .bind(claim.run_id)
             .execute(&mut *tx)
             .await?;
             hint_job_queued(self.backend, &mut tx).await?;
@@ -291,8 +294,8 @@ impl Store {
         sqlx::query(
             "INSERT INTO diagnoses (job_id, run_id, completed_at, report) VALUES ($1, $2, $3, $4)",
         )
-        .bind(&fence.job_id)
-        .bind(&claim.run_id)
+        .bind(fence.job_id)
+        .bind(claim.run_id)
         .bind(now)
         .bind(&report_json)
         .execute(&mut *tx)
@@ -364,13 +367,14 @@ mod tests {
     use super::*;
     use crate::store::{InsertOutcome, NewRun, RunFile};
 
-    async fn store_with_one_job() -> (tempfile::TempDir, Store, String) {
+    async fn store_with_one_job() -> (tempfile::TempDir, Store, JobId) {
         let dir = tempfile::tempdir().unwrap();
         let store = Store::open_for_test(&dir.path().join("q.db")).await;
+        let job_id = JobId::new();
         let new = NewRun {
-            run_id: "run-1".into(),
-            job_id: "job-1".into(),
-            unit_serial: "U-1".into(),
+            run_id: RunId::new(),
+            job_id,
+            unit_serial: "U-1".parse().unwrap(),
             file: RunFile {
                 sha256: "00".into(),
                 size_bytes: 0,
@@ -388,7 +392,7 @@ mod tests {
         };
         let outcome = store.insert_run_and_job(&new, 10).await.unwrap();
         assert_eq!(outcome, InsertOutcome::Created);
-        (dir, store, "job-1".into())
+        (dir, store, job_id)
     }
 
     /// A lease that ran out is reclaimed as the next attempt; from then on
@@ -422,7 +426,7 @@ mod tests {
         // The second attempt is the last: a retryable failure fails for good.
         let failed = store.fail_job(&new.fence, "e", true, Duration::ZERO);
         assert_eq!(failed.await.unwrap(), Some(JobState::DeadLetter));
-        let row = store.get_job(&job).await.unwrap().unwrap();
+        let row = store.get_job(job).await.unwrap().unwrap();
         assert_eq!(
             (row.kind, row.state),
             (JobKind::Calibrate, JobState::DeadLetter)
@@ -445,7 +449,7 @@ mod tests {
         let second = store.claim_job("a", lease).await.unwrap().unwrap();
         assert_eq!(second.fence.attempt, 2);
         assert!(store.release_job(&second.fence).await.unwrap());
-        let row = store.get_job(&job).await.unwrap().unwrap();
+        let row = store.get_job(job).await.unwrap().unwrap();
         assert_eq!((row.state, row.attempts), (JobState::Queued, 1));
         assert_eq!(store.queue_depth().await.unwrap(), 1);
     }

@@ -8,6 +8,7 @@ use sqlx::FromRow;
 
 use super::db::{Store, WriteTx};
 use super::error::StoreError;
+use super::ids::{JobId, RunId};
 use super::jobs::{by_state, JobCounts};
 use super::kinds::OptionalFlag;
 use super::runs::{insert_unit_and_run, NewRun};
@@ -16,10 +17,12 @@ use super::verdicts::{refresh_unit, StoredVerdict};
 use sinscal_core::accept::VerdictStatus;
 use sinscal_core::calib::result::RunTemperature;
 use sinscal_core::calib::{ModelCheck, ParameterEstimate};
+use sinscal_core::io::UnitSerial;
 
 #[derive(Clone, Debug, FromRow)]
 pub struct UnitSummary {
-    pub serial: String,
+    #[sqlx(try_from = "String")]
+    pub serial: UnitSerial,
     pub created_at: i64,
     pub runs: i64,
     pub calibrated: i64,
@@ -30,7 +33,7 @@ pub struct UnitSummary {
     pub product: Option<String>,
     /// The verdict of its latest calibrated run (the columns of
     /// [`UnitSummary::verdict`]).
-    pub verdict_run_id: Option<String>,
+    pub verdict_run_id: Option<RunId>,
     pub verdict_detail: Option<String>,
     pub verdict_product: Option<String>,
     pub verdict_revision: Option<i64>,
@@ -40,7 +43,7 @@ pub struct UnitSummary {
 impl UnitSummary {
     /// The verdict of the unit's latest calibrated run.
     pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
-        let Some(run_id) = &self.verdict_run_id else {
+        let Some(run_id) = self.verdict_run_id else {
             return Ok(None);
         };
         StoredVerdict::from_columns(
@@ -66,8 +69,8 @@ pub struct UnitFilter {
 
 #[derive(Clone, Debug, FromRow)]
 pub struct HistoryRow {
-    pub run_id: String,
-    pub job_id: String,
+    pub run_id: RunId,
+    pub job_id: JobId,
     pub run_time: i64,
     pub completed_at: i64,
     pub parameters: String,
@@ -83,7 +86,7 @@ pub struct HistoryRow {
 impl HistoryRow {
     pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
         StoredVerdict::from_columns(
-            &self.run_id,
+            self.run_id,
             self.verdict_detail.as_deref(),
             self.verdict_product.clone(),
             self.verdict_revision,
@@ -95,7 +98,7 @@ impl HistoryRow {
 /// A result as a thermal model reads it.
 #[derive(Clone, Debug, FromRow)]
 pub struct ThermalRow {
-    pub run_id: String,
+    pub run_id: RunId,
     pub run_time: i64,
     /// The parameters' JSON.
     pub parameters: String,
@@ -114,7 +117,7 @@ const UNIT_COLUMNS: &str = "u.serial, u.created_at,
          ORDER BY s.run_time DESC, s.run_id DESC LIMIT 1)";
 
 impl Store {
-    pub async fn get_result(&self, run_id: &str) -> Result<Option<String>, StoreError> {
+    pub async fn get_result(&self, run_id: RunId) -> Result<Option<String>, StoreError> {
         Ok(
             sqlx::query_scalar("SELECT result FROM result_documents WHERE run_id = $1")
                 .bind(run_id)
@@ -124,7 +127,7 @@ impl Store {
     }
 
     /// The report of a run's most recent successful diagnosis.
-    pub async fn latest_diagnosis(&self, run_id: &str) -> Result<Option<String>, StoreError> {
+    pub async fn latest_diagnosis(&self, run_id: RunId) -> Result<Option<String>, StoreError> {
         Ok(sqlx::query_scalar(
             "SELECT report FROM diagnoses WHERE run_id = $1
              ORDER BY completed_at DESC, job_id DESC LIMIT 1",
@@ -195,22 +198,22 @@ impl Store {
         Ok((total, rows))
     }
 
-    pub async fn get_unit(&self, serial: &str) -> Result<Option<UnitSummary>, StoreError> {
+    pub async fn get_unit(&self, serial: &UnitSerial) -> Result<Option<UnitSummary>, StoreError> {
         Ok(
             sqlx::query_as(&format!("SELECT {UNIT_COLUMNS} WHERE u.serial = $1"))
-                .bind(serial)
+                .bind(serial.as_str())
                 .fetch_optional(&self.read)
                 .await?,
         )
     }
 
     /// Jobs of a unit's runs per state.
-    pub async fn unit_job_counts(&self, serial: &str) -> Result<JobCounts, StoreError> {
+    pub async fn unit_job_counts(&self, serial: &UnitSerial) -> Result<JobCounts, StoreError> {
         let rows = sqlx::query_as(
             "SELECT j.state, COUNT(*) AS n FROM jobs j JOIN runs r ON r.id = j.run_id
              WHERE r.unit_serial = $1 GROUP BY j.state",
         )
-        .bind(serial)
+        .bind(serial.as_str())
         .fetch_all(&self.read)
         .await?;
         Ok(by_state(rows))
@@ -221,7 +224,7 @@ impl Store {
     /// `results_unit_verdict`).
     pub async fn history(
         &self,
-        serial: &str,
+        serial: &UnitSerial,
         (from, to): (i64, i64),
         verdict: Option<VerdictStatus>,
         limit: i64,
@@ -235,7 +238,7 @@ impl Store {
             "unit_serial = $1 AND run_time >= $2 AND run_time < $3 AND $4 IS NULL"
         };
         let total = sqlx::query_scalar(&format!("SELECT COUNT(*) FROM results WHERE {filter}"))
-            .bind(serial)
+            .bind(serial.as_str())
             .bind(from)
             .bind(to)
             .bind(verdict.map(VerdictStatus::as_str))
@@ -248,7 +251,7 @@ impl Store {
              WHERE {filter}
              ORDER BY run_time, run_id LIMIT $5 OFFSET $6"
         ))
-        .bind(serial)
+        .bind(serial.as_str())
         .bind(from)
         .bind(to)
         .bind(verdict.map(VerdictStatus::as_str))
@@ -265,7 +268,7 @@ impl Store {
     /// from.
     pub async fn thermal_rows(
         &self,
-        serial: &str,
+        serial: &UnitSerial,
         (from, to): (i64, i64),
         verdict: Option<VerdictStatus>,
         max_span_c: f64,
@@ -277,7 +280,7 @@ impl Store {
                AND ($5 IS NULL OR verdict = $5)
              ORDER BY run_time, run_id",
         )
-        .bind(serial)
+        .bind(serial.as_str())
         .bind(from)
         .bind(to)
         .bind(max_span_c)
@@ -293,7 +296,7 @@ impl Store {
     /// run, in time order (ties by run id, as history orders them).
     pub async fn repeatability(
         &self,
-        serial: &str,
+        serial: &UnitSerial,
         since: i64,
         last: Option<i64>,
     ) -> Result<Vec<ParamSpread>, StoreError> {
@@ -304,7 +307,7 @@ impl Store {
             "SELECT param_values FROM results WHERE unit_serial = $1 AND run_time >= $2
              ORDER BY run_time DESC, run_id DESC LIMIT $3",
         )
-        .bind(serial)
+        .bind(serial.as_str())
         .bind(since)
         .bind(last.unwrap_or(i64::MAX))
         .fetch_all(&self.read)
@@ -332,8 +335,8 @@ impl Store {
             "INSERT INTO jobs (id, run_id, state, attempts, max_attempts, run_after, progress, created_at, finished_at)
              VALUES ($1, $2, 'succeeded', 1, $3, $4, 1, $5, $6)",
         )
-        .bind(&new.job_id)
-        .bind(&new.run_id)
+        .bind(new.job_id)
+        .bind(new.run_id)
         .bind(new.max_attempts)
         .bind(new.uploaded_at)
         .bind(new.uploaded_at)
@@ -342,8 +345,8 @@ impl Store {
         .await?;
         let document = serde_json::json!({ "parameters": parameters }).to_string();
         let stored = StoredResult {
-            run_id: &new.run_id,
-            job_id: &new.job_id,
+            run_id: new.run_id,
+            job_id: new.job_id,
             unit_serial: &new.unit_serial,
             run_time,
             completed_at: new.uploaded_at,
@@ -363,9 +366,9 @@ impl Store {
 /// A finished calibration as stored: the summary row history and
 /// repeatability read, and the whole document apart.
 pub(super) struct StoredResult<'a> {
-    pub(super) run_id: &'a str,
-    pub(super) job_id: &'a str,
-    pub(super) unit_serial: &'a str,
+    pub(super) run_id: RunId,
+    pub(super) job_id: JobId,
+    pub(super) unit_serial: &'a UnitSerial,
     pub(super) run_time: i64,
     pub(super) completed_at: i64,
     pub(super) parameters: &'a BTreeMap<String, ParameterEstimate>,
@@ -390,7 +393,7 @@ pub(super) async fn insert_result(
     )
     .bind(r.run_id)
     .bind(r.job_id)
-    .bind(r.unit_serial)
+    .bind(r.unit_serial.as_str())
     .bind(r.run_time)
     .bind(r.completed_at)
     .bind(serde_json::to_string(r.parameters)?)
@@ -412,7 +415,7 @@ pub(super) async fn insert_result(
     // (their repeatability now includes it).
     refresh_unit(
         tx,
-        r.unit_serial,
+        r.unit_serial.as_str(),
         Some((r.run_time, r.run_id)),
         r.completed_at,
     )

@@ -7,9 +7,11 @@ use sqlx::FromRow;
 use super::db::{now_ms, Store, WriteTx};
 use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
+use super::ids::{JobId, RunId};
 use super::jobs::count_queued;
 use super::kinds::{Flag, JobState, OptionalFlag};
 use super::verdicts::{refresh_unit, refresh_unit_row, StoredVerdict};
+use sinscal_core::io::UnitSerial;
 
 /// A run's row with its calibration job and its result's columns (`r` the
 /// run).
@@ -36,8 +38,9 @@ pub struct RunFile {
 /// A stored run, with its job's id.
 #[derive(Clone, Debug, FromRow)]
 pub struct RunRow {
-    pub id: String,
-    pub unit_serial: String,
+    pub id: RunId,
+    #[sqlx(try_from = "String")]
+    pub unit_serial: UnitSerial,
     #[sqlx(flatten)]
     pub file: RunFile,
     pub recorded_at: Option<i64>,
@@ -46,7 +49,7 @@ pub struct RunRow {
     /// The token that uploaded it (`None` for runs stored before uploaders
     /// were recorded).
     pub uploaded_by: Option<String>,
-    pub job_id: String,
+    pub job_id: JobId,
     /// Whether the run has a result (read by [`Store::get_run`]).
     #[sqlx(default, try_from = "Flag")]
     pub calibrated: bool,
@@ -70,7 +73,7 @@ impl RunRow {
     /// The result's verdict, once there is one.
     pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
         StoredVerdict::from_columns(
-            &self.id,
+            self.id,
             self.verdict_detail.as_deref(),
             self.verdict_product.clone(),
             self.verdict_revision,
@@ -107,9 +110,9 @@ impl Review {
 /// What an upload stores once its bytes are on disk.
 #[derive(Clone, Debug)]
 pub struct NewRun {
-    pub run_id: String,
-    pub job_id: String,
-    pub unit_serial: String,
+    pub run_id: RunId,
+    pub job_id: JobId,
+    pub unit_serial: UnitSerial,
     pub file: RunFile,
     pub recorded_at: Option<i64>,
     pub uploaded_at: i64,
@@ -126,8 +129,8 @@ pub enum InsertOutcome {
     Created,
     /// The same bytes were already stored for this unit: its run and job.
     Existing {
-        run_id: String,
-        job_id: String,
+        run_id: RunId,
+        job_id: JobId,
     },
     /// The queue holds `max_queue` jobs already.
     QueueFull,
@@ -149,14 +152,14 @@ pub enum RunDeletion {
 /// A run's id and its calibration job's id.
 #[derive(FromRow)]
 struct RunAndJob {
-    run_id: String,
-    job_id: String,
+    run_id: RunId,
+    job_id: JobId,
 }
 
 impl Store {
     pub async fn find_run_by_hash(
         &self,
-        unit_serial: &str,
+        unit_serial: &UnitSerial,
         sha256: &str,
     ) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
@@ -164,7 +167,7 @@ impl Store {
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              WHERE r.unit_serial = $1 AND r.sha256 = $2",
         )
-        .bind(unit_serial)
+        .bind(unit_serial.as_str())
         .bind(sha256)
         .fetch_optional(&self.read)
         .await?)
@@ -180,13 +183,13 @@ impl Store {
         let mut tx = self.begin_write().await?;
         // Two servers receiving the same bytes for the unit at once: the
         // second waits, then finds the first's run.
-        lock_key(self.backend, &mut tx, &unit_key(&new.unit_serial)).await?;
+        lock_key(self.backend, &mut tx, &unit_key(new.unit_serial.as_str())).await?;
         let existing: Option<RunAndJob> = sqlx::query_as(
             "SELECT r.id AS run_id, j.id AS job_id FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              WHERE r.unit_serial = $1 AND r.sha256 = $2",
         )
-        .bind(&new.unit_serial)
+        .bind(new.unit_serial.as_str())
         .bind(&new.file.sha256)
         .fetch_optional(&mut *tx)
         .await?;
@@ -201,8 +204,8 @@ impl Store {
             "INSERT INTO jobs (id, run_id, state, max_attempts, run_after, created_at)
              VALUES ($1, $2, 'queued', $3, $4, $5)",
         )
-        .bind(&new.job_id)
-        .bind(&new.run_id)
+        .bind(new.job_id)
+        .bind(new.run_id)
         .bind(new.max_attempts)
         .bind(new.uploaded_at)
         .bind(new.uploaded_at)
@@ -213,7 +216,7 @@ impl Store {
         Ok(InsertOutcome::Created)
     }
 
-    pub async fn get_run(&self, id: &str) -> Result<Option<RunRow>, StoreError> {
+    pub async fn get_run(&self, id: RunId) -> Result<Option<RunRow>, StoreError> {
         Ok(
             sqlx::query_as(&format!("SELECT {RUN_COLUMNS} WHERE r.id = $1"))
                 .bind(id)
@@ -249,7 +252,7 @@ impl Store {
 
     /// Deletes a run with its jobs, results and diagnoses, unless one of
     /// its jobs is running.
-    pub async fn delete_run(&self, id: &str) -> Result<RunDeletion, StoreError> {
+    pub async fn delete_run(&self, id: RunId) -> Result<RunDeletion, StoreError> {
         let mut tx = self.begin_write().await?;
         lock_key(self.backend, &mut tx, &run_key(id)).await?;
         let run: Option<(String, String, i64)> =
@@ -291,7 +294,7 @@ impl Store {
 /// transaction; a run's time is its recording time, else its upload time.
 pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Result<(), StoreError> {
     sqlx::query("INSERT INTO units (serial, created_at) VALUES ($1, $2) ON CONFLICT DO NOTHING")
-        .bind(&new.unit_serial)
+        .bind(new.unit_serial.as_str())
         .bind(new.uploaded_at)
         .execute(&mut **tx)
         .await?;
@@ -300,8 +303,8 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
                            metadata, recorded_at, run_time, uploaded_at, uploaded_by, product)
          VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14)",
     )
-    .bind(&new.run_id)
-    .bind(&new.unit_serial)
+    .bind(new.run_id)
+    .bind(new.unit_serial.as_str())
     .bind(&new.file.sha256)
     .bind(new.file.size_bytes)
     .bind(new.file.records)
@@ -316,5 +319,5 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     .bind(&new.product)
     .execute(&mut **tx)
     .await?;
-    refresh_unit_row(tx, &new.unit_serial).await
+    refresh_unit_row(tx, new.unit_serial.as_str()).await
 }

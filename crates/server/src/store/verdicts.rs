@@ -15,6 +15,7 @@ use sqlx::{AnyConnection, FromRow};
 
 use super::dialect::{lock_key, unit_key, Backend};
 use super::error::StoreError;
+use super::ids::RunId;
 use super::kinds::OptionalFlag;
 use super::spread::SpreadAccumulator;
 use sinscal_core::accept::{judge, Evidence, Product, ProductLimits, Verdict, VerdictStatus};
@@ -24,7 +25,7 @@ use sinscal_core::model::{N_PARAMS, PARAMETERS};
 /// A result's row as a verdict reads it.
 #[derive(FromRow)]
 struct Judged {
-    run_id: String,
+    run_id: RunId,
     parameters: String,
     param_values: Option<Vec<u8>>,
     #[sqlx(try_from = "OptionalFlag")]
@@ -50,10 +51,12 @@ struct Limits {
 pub(super) async fn refresh_unit(
     conn: &mut AnyConnection,
     serial: &str,
-    from: Option<(i64, &str)>,
+    from: Option<(i64, RunId)>,
     now: i64,
 ) -> Result<(), StoreError> {
-    let (from_time, from_id) = from.unwrap_or((i64::MIN, ""));
+    // Compared as the TEXT the column holds: "" sorts before every id.
+    let (from_time, from_id) =
+        from.map_or((i64::MIN, String::new()), |(t, id)| (t, id.to_string()));
     let mut acc = SpreadAccumulator::default();
     let earlier: Vec<Vec<u8>> = sqlx::query_scalar(
         "SELECT param_values FROM results
@@ -62,7 +65,7 @@ pub(super) async fn refresh_unit(
     )
     .bind(serial)
     .bind(from_time)
-    .bind(from_id)
+    .bind(&from_id)
     .fetch_all(&mut *conn)
     .await?;
     for blob in &earlier {
@@ -78,7 +81,7 @@ pub(super) async fn refresh_unit(
     )
     .bind(serial)
     .bind(from_time)
-    .bind(from_id)
+    .bind(&from_id)
     .fetch_all(&mut *conn)
     .await?;
     let mut types: HashMap<String, Option<Limits>> = HashMap::new();
@@ -131,7 +134,7 @@ pub(super) async fn refresh_unit(
         .bind(&row.product)
         .bind(revision)
         .bind(now)
-        .bind(&row.run_id)
+        .bind(row.run_id)
         .execute(&mut *conn)
         .await?;
     }
@@ -235,7 +238,7 @@ fn names(json: Option<&str>) -> Result<Vec<String>, StoreError> {
 /// against.
 #[derive(Clone, Debug)]
 pub struct StoredVerdict {
-    pub run_id: String,
+    pub run_id: RunId,
     pub verdict: Verdict,
     /// The product the run named (`None`: none).
     pub product: Option<String>,
@@ -248,7 +251,7 @@ pub struct StoredVerdict {
 impl StoredVerdict {
     /// From a row's verdict columns; `None` when it has no verdict.
     pub(super) fn from_columns(
-        run_id: &str,
+        run_id: RunId,
         detail: Option<&str>,
         product: Option<String>,
         revision: Option<i64>,
@@ -258,7 +261,7 @@ impl StoredVerdict {
             return Ok(None);
         };
         Ok(Some(StoredVerdict {
-            run_id: run_id.to_string(),
+            run_id,
             verdict: serde_json::from_str(detail)?,
             product,
             revision,

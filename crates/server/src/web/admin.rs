@@ -139,8 +139,9 @@ pub async fn revoke_token(
 ) -> Result<Response, PageError> {
     session.check_csrf(&form.csrf)?;
     session.require(roles::ADMIN)?;
-    let id = parse_id(id, "token")?;
-    revoke(&st, &session.auth, &id).await?;
+    // A token's id is a UUID too, kept as its text.
+    let id: uuid::Uuid = parse_id(id, "token")?;
+    revoke(&st, &session.auth, &id.to_string()).await?;
     Ok(see_other("/admin"))
 }
 

@@ -20,7 +20,7 @@ pub async fn page(
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = engineer_run(&st, &session, id).await?;
-    let result = parsed_result(&st, &run.id).await?.ok_or_else(|| {
+    let result = parsed_result(&st, run.id).await?.ok_or_else(|| {
         PageError::not_found(format!("run {} has no result: no certificate yet", run.id))
     })?;
     let meta = RunMetadata::from_json(run.file.metadata.as_bytes()).ok();
@@ -28,7 +28,7 @@ pub async fn page(
     let limits = product_limits(&st, verdict.as_ref()).await?;
     let completed = st
         .store
-        .get_job(&run.job_id)
+        .get_job(run.job_id)
         .await?
         .and_then(|j| j.finished_at);
     let (word, class) = format::verdict(verdict.as_ref().map(|v| v.status()));

@@ -22,7 +22,7 @@ pub async fn page(
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = engineer_run(&st, &session, id).await?;
-    let json = crate::api::runs::latest_report(&st, &run.id).await?;
+    let json = crate::api::runs::latest_report(&st, run.id).await?;
     let report: DiagnoseReport = tokio::task::spawn_blocking(move || serde_json::from_str(&json))
         .await
         .map_err(|e| ApiError::Internal(format!("report task: {e}")))?

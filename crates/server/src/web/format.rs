@@ -45,8 +45,9 @@ pub fn verdict(status: Option<VerdictStatus>) -> (&'static str, &'static str) {
 }
 
 /// The first part of an id, enough to tell runs apart on a page.
-pub fn short_id(id: &str) -> &str {
-    id.get(..8).unwrap_or(id)
+pub fn short_id(id: impl std::fmt::Display) -> String {
+    let id = id.to_string();
+    id.get(..8).unwrap_or(&id).to_string()
 }
 
 #[cfg(test)]

@@ -92,7 +92,7 @@ pub async fn page(
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = engineer_run(&st, &session, id).await?;
-    let report = analyse_noise(&st, &run.id).await?;
+    let report = analyse_noise(&st, run.id).await?;
     let tau = &report.curves.tau_s;
     let gyro = allan_chart(
         ("Gyro Allan deviation", "σ(τ) (deg/h)", "gyro"),

@@ -19,34 +19,35 @@ use super::session::{see_other, CsrfForm, Session};
 use crate::api::auth::roles;
 use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run};
 use crate::api::{parse_id, AppState};
-use crate::store::{JobRow, Role, RunRow, StoredVerdict};
+use crate::store::{JobRow, Role, RunId, RunRow, StoredVerdict};
 use sinscal_core::accept::{LimitKind, ProductLimits, Verdict};
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::model::PARAMETERS;
 
-/// The run `id` if the session may read it (a station: its own uploads
-/// only, as in the API; others read as 404).
+/// The run of a path's `id` if the session may read it (a station: its
+/// own uploads only, as in the API; others read as 404). The id is parsed
+/// here, after the role check, as the API parses it: a malformed one is
+/// the 404 of an unknown one.
 pub(super) async fn readable_run(
     st: &AppState,
     session: &Session,
     id: String,
 ) -> Result<RunRow, PageError> {
     session.require(roles::FOLLOW)?;
-    let id = parse_id(id, "run")?;
-    Ok(crate::api::runs::readable_run(st, &session.auth, &id).await?)
+    let id: RunId = parse_id(id, "run")?;
+    Ok(crate::api::runs::readable_run(st, &session.auth, id).await?)
 }
 
 /// The run's result, parsed (a few hundred kB of JSON, mostly the
 /// convergence history: off the async workers).
 pub(super) async fn parsed_result(
     st: &AppState,
-    id: &str,
+    id: RunId,
 ) -> Result<Option<CalibrationResult>, PageError> {
     let Some(json) = st.store.get_result(id).await? else {
         return Ok(None);
     };
-    let id = id.to_string();
     tokio::task::spawn_blocking(move || {
         serde_json::from_str(&json).map(Some).map_err(|e| {
             PageError::from(crate::api::error::ApiError::Internal(format!(
@@ -86,7 +87,7 @@ pub async fn page(
     let jobs = run_jobs(&st, &run).await?;
     let engineer = roles::ENGINEER.contains(&session.role());
     let result = if engineer {
-        parsed_result(&st, &run.id).await?
+        parsed_result(&st, run.id).await?
     } else {
         None
     };
@@ -166,8 +167,8 @@ impl RunJobs {
 
 async fn run_jobs(st: &AppState, run: &RunRow) -> Result<RunJobs, PageError> {
     Ok(RunJobs {
-        calibrate: st.store.get_job(&run.job_id).await?,
-        diagnose: st.store.latest_diagnose_job(&run.id).await?,
+        calibrate: st.store.get_job(run.job_id).await?,
+        diagnose: st.store.latest_diagnose_job(run.id).await?,
     })
 }
 
@@ -397,13 +398,13 @@ pub async fn action(
     let run = readable_run(&st, &session, id).await?;
     match action {
         RunAction::Diagnose => {
-            queue_diagnosis(&st, &run.id).await?;
+            queue_diagnosis(&st, run.id).await?;
         }
         RunAction::Calibrate => {
-            queue_recalibration(&st, &run.id).await?;
+            queue_recalibration(&st, run.id).await?;
         }
         RunAction::Delete => {
-            remove_run(&st, &run.id).await?;
+            remove_run(&st, run.id).await?;
             return Ok(see_other(&format!("/units/{}", run.unit_serial)));
         }
     }
@@ -457,16 +458,16 @@ pub async fn download(
     let (content_type, body) = match file {
         RunFile::ResultJson => (
             "application/json",
-            crate::api::runs::result_document(&st, &run.id).await?,
+            crate::api::runs::result_document(&st, run.id).await?,
         ),
         RunFile::ResultCsv => {
-            let r = parsed_result(&st, &run.id)
+            let r = parsed_result(&st, run.id)
                 .await?
                 .ok_or_else(|| PageError::not_found(format!("run {} has no result yet", run.id)))?;
             ("text/csv", result_csv(&r))
         }
         RunFile::CompensationJson | RunFile::CompensationCsv => {
-            let c = crate::api::compensation::compensation_of(&st, &run.id).await?;
+            let c = crate::api::compensation::compensation_of(&st, run.id).await?;
             if file == RunFile::CompensationJson {
                 ("application/json", c.to_json())
             } else {

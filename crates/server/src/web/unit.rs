@@ -21,7 +21,7 @@ use crate::api::error::ApiError;
 use crate::api::thermal::{unit_thermal_model, ThermalQuery};
 use crate::api::AppState;
 use sinscal_core::calib::ParameterEstimate;
-use sinscal_core::io::meta::validate_serial;
+use sinscal_core::io::UnitSerial;
 use sinscal_core::model::PARAMETERS;
 
 /// Most runs a unit page reads (its history is paged beyond in the API).
@@ -46,7 +46,7 @@ pub async fn page(
     query: Result<Query<UnitQuery>, QueryRejection>,
 ) -> Result<Html<String>, PageError> {
     session.require(roles::ENGINEER)?;
-    validate_serial(&serial).map_err(PageError::bad_request)?;
+    let serial: UnitSerial = serial.parse().map_err(PageError::bad_request)?;
     let Query(q) = query.map_err(|e| PageError::bad_request(e.body_text()))?;
     let unit = st
         .store
@@ -71,7 +71,7 @@ pub async fn page(
             serde_json::from_str(&r.parameters)
                 .map_err(|e| PageError::from(crate::store::StoreError::from(e)))?;
         runs.push(UnitRun {
-            run_id: r.run_id.clone(),
+            run_id: r.run_id,
             run_time: r.run_time,
             parameters,
             verdict: r.verdict()?.map(|v| v.status()),
@@ -97,12 +97,12 @@ pub async fn page(
             @if total > MAX_RUNS { dt { "Shown" } dd { "the first " (MAX_RUNS) " of " (total) " calibrated runs" } }
         }
         h2 { "Calibration history" }
-        (history(&serial, &runs, &q))
+        (history(serial.as_str(), &runs, &q))
         @if !q.a.is_empty() && !q.b.is_empty() {
             (compare(&runs, &q.a, &q.b)?)
         }
         h2 { "Repeatability" }
-        (repeatability_table(&serial, &runs, &spread, limits.as_ref(), all_columns))
+        (repeatability_table(serial.as_str(), &runs, &spread, limits.as_ref(), all_columns))
         h2 { "Trends" }
         p.muted { "Each run's estimate ± 1σ against the run's date; the band is the product type's limit on |value|." }
         (trend_charts(&runs, limits.as_ref()))
@@ -138,8 +138,8 @@ fn history(serial: &str, runs: &[UnitRun], q: &UnitQuery) -> Markup {
                                 Some(false) => span.fail { "inadequate" },
                                 None => "—",
                             } }
-                            td { input type="radio" name="a" value=(r.run_id) checked[q.a == r.run_id] aria-label="compare as A"; }
-                            td { input type="radio" name="b" value=(r.run_id) checked[q.b == r.run_id] aria-label="compare as B"; }
+                            td { input type="radio" name="a" value=(r.run_id) checked[q.a == r.run_id.to_string()] aria-label="compare as A"; }
+                            td { input type="radio" name="b" value=(r.run_id) checked[q.b == r.run_id.to_string()] aria-label="compare as B"; }
                         }
                     }
                 }
@@ -151,11 +151,15 @@ fn history(serial: &str, runs: &[UnitRun], q: &UnitQuery) -> Markup {
 
 /// Two runs side by side: per parameter the difference B − A, and how many
 /// combined σ it is (a change beyond 3 is more than the estimators' noise).
+/// `a` and `b` are the query's text, matched against the ids' spelling: any
+/// other text (malformed or not) names no run of the unit.
 fn compare(runs: &[UnitRun], a: &str, b: &str) -> Result<Markup, PageError> {
     let find = |id: &str| {
-        runs.iter().find(|r| r.run_id == id).ok_or_else(|| {
-            PageError::not_found(format!("run {id} is not a calibrated run of this unit"))
-        })
+        runs.iter()
+            .find(|r| r.run_id.to_string() == id)
+            .ok_or_else(|| {
+                PageError::not_found(format!("run {id} is not a calibrated run of this unit"))
+            })
     };
     let (ra, rb) = (find(a)?, find(b)?);
     Ok(html! {

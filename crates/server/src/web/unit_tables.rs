@@ -8,7 +8,7 @@ use maud::{html, Markup, PreEscaped};
 
 use super::format;
 use crate::plot::{Band, Chart, Point, Series, Style, XAxis};
-use crate::store::ParamSpread;
+use crate::store::{ParamSpread, RunId};
 use sinscal_core::accept::{LimitKind, ProductLimits, VerdictStatus};
 use sinscal_core::calib::ParameterEstimate;
 use sinscal_core::model::{Group, PARAMETERS};
@@ -18,7 +18,7 @@ const DEFAULT_COLUMNS: usize = 10;
 
 /// One calibrated run as the unit page reads it.
 pub struct UnitRun {
-    pub run_id: String,
+    pub run_id: RunId,
     pub run_time: i64,
     pub parameters: BTreeMap<String, ParameterEstimate>,
     pub verdict: Option<VerdictStatus>,
