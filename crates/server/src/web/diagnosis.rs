@@ -28,7 +28,7 @@ pub async fn page(
         .map_err(|e| ApiError::Internal(format!("report task: {e}")))?
         .map_err(|e| ApiError::Internal(format!("stored diagnosis of run {}: {e}", run.id)))?;
     let body = html! {
-        h1 { "Diagnosis of run " a href={ "/runs/" (run.id) } { code { (format::short_id(&run.id)) } } " (unit " (run.unit_serial) ")" }
+        h1 { "Diagnosis of run " a href={ "/runs/" (run.id) } { code { (format::short_id(run.id)) } } " (unit " (run.unit_serial) ")" }
         p #diagnosis-verdict { strong { "Verdict: " } (report.verdict.to_string()) }
         table #gap {
             tr { th { "" } th.num { "Gap RMS (mm/s)" } th.num { "Excess over noise (mm/s)" } th.num { "z" } }

@@ -116,7 +116,7 @@ pub async fn page(
     );
     let over = &report.computed_over;
     let body = html! {
-        h1 { "Noise of run " a href={ "/runs/" (run.id) } { code { (format::short_id(&run.id)) } } " (unit " (run.unit_serial) ")" }
+        h1 { "Noise of run " a href={ "/runs/" (run.id) } { code { (format::short_id(run.id)) } } " (unit " (run.unit_serial) ")" }
         p.muted {
             "Overlapping Allan deviation over "
             @match over.span { Span::Dwells => { (over.stretches.len()) " dwells" }, Span::WholeRun => "the whole (static) run" }

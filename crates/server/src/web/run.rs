@@ -94,7 +94,7 @@ pub async fn page(
     let verdict = run.verdict()?;
     let limits = product_limits(&st, verdict.as_ref()).await?;
     let body = html! {
-        h1 { "Run " code { (format::short_id(&run.id)) } " of unit "
+        h1 { "Run " code { (format::short_id(run.id)) } " of unit "
             @if engineer { a href={ "/units/" (run.unit_serial) } { (run.unit_serial) } } @else { (run.unit_serial) } }
         dl.facts {
             dt { "Run id" } dd { code { (run.id) } }
@@ -142,7 +142,7 @@ pub async fn page(
     };
     Ok(Html(
         layout::page(
-            &format!("Run {}", format::short_id(&run.id)),
+            &format!("Run {}", format::short_id(run.id)),
             Some(&session),
             body,
         )
@@ -479,7 +479,7 @@ pub async fn download(
     let attachment = format!(
         "attachment; filename=\"{}-{}-{name}\"",
         run.unit_serial,
-        format::short_id(&run.id)
+        format::short_id(run.id)
     );
     if let Ok(v) = HeaderValue::from_str(&attachment) {
         resp.headers_mut().insert(header::CONTENT_DISPOSITION, v);

@@ -131,7 +131,7 @@ fn history(serial: &str, runs: &[UnitRun], q: &UnitQuery) -> Markup {
                         @let (word, class) = format::verdict(r.verdict);
                         tr {
                             td { (format::time(r.run_time)) }
-                            td { a href={ "/runs/" (r.run_id) } { code { (format::short_id(&r.run_id)) } } }
+                            td { a href={ "/runs/" (r.run_id) } { code { (format::short_id(r.run_id)) } } }
                             td { span class={ "badge " (class) } { (word) } }
                             td { @match r.model_adequate {
                                 Some(true) => "adequate",

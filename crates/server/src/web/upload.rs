@@ -42,7 +42,7 @@ pub async fn page(State(st): State<AppState>, session: Session) -> Result<Html<S
                 tr { th { "Uploaded" } th { "Unit" } th { "Run" } th { "Records" } th { "Calibrated" } }
                 @for r in &recent {
                     tr { td { (format::time(r.uploaded_at)) } td { (r.unit_serial) }
-                         td { a href={ "/runs/" (r.id) } { code { (format::short_id(&r.id)) } } }
+                         td { a href={ "/runs/" (r.id) } { code { (format::short_id(r.id)) } } }
                          td.num { (r.file.records) } td { @if r.calibrated { "yes" } @else { "not yet" } } }
                 }
             }
