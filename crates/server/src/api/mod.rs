@@ -313,3 +313,23 @@ impl AppState {
         self.stopping.store(true, Ordering::Relaxed);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::store::{JobId, RunId};
+
+    /// A path's id parses in any UUID spelling to the one the store keeps;
+    /// anything else is the 404 of an id that names nothing.
+    #[test]
+    fn a_path_id_is_a_uuid_or_names_nothing() {
+        let id: RunId = parse_id("6F9619FF8B86D011B42D00C04FC964FF".into(), "run").unwrap();
+        assert_eq!(id.to_string(), "6f9619ff-8b86-d011-b42d-00c04fc964ff");
+        match parse_id::<JobId>("not-a-uuid".into(), "job") {
+            Err(ApiError::NotFound(detail)) => {
+                assert_eq!(detail, r#"no job "not-a-uuid" (ids are UUIDs)"#)
+            }
+            other => panic!("{:?}", other.map(|id| id.to_string())),
+        }
+    }
+}
