@@ -1,5 +1,5 @@
 //! Thermal model from soaked runs over many seeds (`cargo bench --bench
-//! thermal [-- SEEDS] [soak|ramp]`, default 20 seeds, both parts): five soaks of `ten-position` (600 s
+//! thermal [-- SEEDS] [soak|ramp|chamber|quadratic]`, default 20 seeds, every part): five soaks of `ten-position` (600 s
 //! dwells, 20 Hz, navigation-grade noise) at −20, 5, 25, 45, 65 °C of the
 //! unit of `tests/suite/thermal_support` (16 linear, 3 quadratic coefficients),
 //! seeds 1..=SEEDS. Prints RMS err/σ of the 25 °C values, the linear and
@@ -14,7 +14,10 @@
 //! `sinscal calibrate --thermal` does: RMS err/σ of the thermal
 //! coefficients and the largest |z| per ramp. `quadratic`: the rising
 //! ramp with a quadratic accelerometer bias the in-run states lack, at
-//! growing sizes: how often the model check flags it.
+//! growing sizes: how often the model check flags it. `--only NAME` runs
+//! one ramp shape, `--each` prints every coefficient's RMS and each
+//! seed's largest |z|, `--stated` calibrates under the truth's white noise
+//! model instead of the measured and fitted one.
 //!
 //! Then the in-run thermal states over the same seeds: one run of
 //! `ten-position-9+9` three times over (300 s dwells, 4.8 h, 20 Hz) while
