@@ -201,24 +201,10 @@ pub fn ramp_config(seed: u64) -> SimConfig {
 /// A ramp result's thermal coefficients against the truth: (name, z) for
 /// the 21 linear coefficients the states carry and the three k.
 pub fn ramp_coefficient_z(thermal: &RunThermal) -> Vec<(String, f64)> {
-    let truth = ramp_truth();
-    let mut out = Vec::new();
-    for (i, p) in PARAMETERS.iter().enumerate() {
-        if let Some(l) = thermal.parameters[p.name].linear {
-            out.push((
-                format!("{} linear", p.name),
-                (l.value - truth.linear(i)) / l.sigma,
-            ));
-        }
-    }
-    for (axis, k) in ["x", "y", "z"].iter().zip(GYRO_BIAS_RATE) {
-        let got = thermal.gyro_bias_rate[*axis];
-        out.push((
-            format!("gyro_bias_rate {axis}"),
-            (got.value - k) / got.sigma,
-        ));
-    }
-    out
+    chamber_errors(thermal, &ramp_truth())
+        .into_iter()
+        .map(|(name, err, sigma, _)| (name, err / sigma))
+        .collect()
 }
 
 /// A chamber profile for in-run thermal calibration at a line's rate:
@@ -303,8 +289,8 @@ pub fn chamber_config(ramp: ChamberRamp, rate_hz: f64, noise: Noise, seed: u64) 
     }
 }
 
-/// A [`ChamberRamp`] result's thermal coefficients against the truth:
-/// (name, error, σ, truth) for the 21 linear coefficients and the three
+/// A ramp result's thermal coefficients against `truth`: (name, error,
+/// σ, truth) for the linear coefficients the states carry and the three
 /// k.
 pub fn chamber_errors(thermal: &RunThermal, truth: &ThermalTruth) -> Vec<(String, f64, f64, f64)> {
     let mut out = Vec::new();
@@ -314,9 +300,14 @@ pub fn chamber_errors(thermal: &RunThermal, truth: &ThermalTruth) -> Vec<(String
             out.push((format!("{} linear", p.name), l.value - t, l.sigma, t));
         }
     }
-    for (axis, k) in ["x", "y", "z"].iter().zip(CHAMBER_GYRO_BIAS_RATE) {
+    for (axis, k) in ["x", "y", "z"].iter().zip(truth.gyro_bias_rate()) {
         let got = thermal.gyro_bias_rate[*axis];
-        out.push((format!("k {axis}"), got.value - k, got.sigma, k));
+        out.push((
+            format!("gyro_bias_rate {axis}"),
+            got.value - k,
+            got.sigma,
+            k,
+        ));
     }
     out
 }
