@@ -1,5 +1,6 @@
 //! Thermal model from soaked runs over many seeds (`cargo bench --bench
-//! thermal [-- SEEDS] [soak|ramp|chamber|quadratic]`, default 20 seeds, every part): five soaks of `ten-position` (600 s
+//! thermal [-- SEEDS] [soak|ramp|chamber|quadratic]`, default 20 seeds,
+//! every part): five soaks of `ten-position` (600 s
 //! dwells, 20 Hz, navigation-grade noise) at −20, 5, 25, 45, 65 °C of the
 //! unit of `tests/suite/thermal_support` (16 linear, 3 quadratic coefficients),
 //! seeds 1..=SEEDS. Prints RMS err/σ of the 25 °C values, the linear and
@@ -17,7 +18,8 @@
 //! growing sizes: how often the model check flags it. `--only NAME` runs
 //! one ramp shape, `--each` prints every coefficient's RMS and each
 //! seed's largest |z|, `--stated` calibrates under the truth's white noise
-//! model instead of the measured and fitted one.
+//! model instead of the measured and fitted one, `--real` adds a real
+//! unit's SPEC §2a noise (pulses, bias instability) to the chamber runs.
 //!
 //! Then the in-run thermal states over the same seeds: one run of
 //! `ten-position-9+9` three times over (300 s dwells, 4.8 h, 20 Hz) while

@@ -15,12 +15,24 @@ use sinscal_core::sim::{Noise, SimConfig};
 use super::thermal_support::*;
 
 /// Navigation-grade white noise, the issue's: ARW 0.0003 deg/√h, VRW
-/// 5 µg/√Hz.
+/// 5 µg/√Hz; with `--real`, a real unit's SPEC §2a noise over it: 1″ and
+/// 1e-4 m/s pulses, bias instability 0.001 deg/h and 1 µg.
 fn noise() -> Noise {
-    Noise {
+    let white = Noise {
         gyro_arw_deg_rt_h: 0.0003,
         accel_vrw_ug_rt_hz: 5.0,
         ..Noise::default()
+    };
+    if std::env::args().any(|a| a == "--real") {
+        Noise {
+            gyro_quantum_arcsec: 1.0,
+            accel_quantum_mps: 1e-4,
+            gyro_bias_instability_deg_h: 0.001,
+            accel_bias_instability_ug: 1.0,
+            ..white
+        }
+    } else {
+        white
     }
 }
 
@@ -156,7 +168,10 @@ pub fn ramps(seeds: u64) {
 /// whose model check flags the run, and how far the linear coefficient it
 /// drags sits from its truth.
 pub fn quadratic(seeds: u64) {
-    for q in [0.0, 0.005, 0.01, 0.02, 0.05, 0.1] {
+    // `--q=0.05` runs that size alone.
+    let only: Option<f64> = std::env::args().find_map(|a| a.strip_prefix("--q=")?.parse().ok());
+    let sizes = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1];
+    for q in sizes.into_iter().filter(|q| only.map_or(true, |o| o == *q)) {
         let start = Instant::now();
         let results = calibrate_seeds(seeds, |seed| SimConfig {
             thermal: Some(chamber_truth(&[("accel_bias_x", q)])),
@@ -165,8 +180,21 @@ pub fn quadratic(seeds: u64) {
         let mut flagged = 0;
         let mut worst_linear = 0.0f64;
         let truth = chamber_truth(&[]);
-        for (_, r) in &results {
-            flagged += usize::from(!r.model_check.as_ref().unwrap().adequate);
+        let each = std::env::args().any(|a| a == "--each");
+        for (seed, r) in &results {
+            let check = r.model_check.as_ref().unwrap();
+            flagged += usize::from(!check.adequate);
+            if each {
+                let source = r.noise_model.as_ref().map(|n| n.source);
+                println!(
+                    "  seed {seed}: χ² {:.0} / {:.0}, largest |z| {:.2} / {:.2}, noise {source:?}{}",
+                    check.statistic,
+                    check.threshold,
+                    check.largest_z,
+                    check.largest_z_threshold,
+                    if fitted_wander(r) { " with wander" } else { "" }
+                );
+            }
             for (name, err, sigma, _) in chamber_errors(r.thermal.as_ref().unwrap(), &truth) {
                 if name == "accel_bias_x linear" {
                     worst_linear = worst_linear.max((err / sigma).abs());

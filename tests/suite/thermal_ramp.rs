@@ -13,6 +13,7 @@ use crate::thermal_support;
 
 use std::sync::atomic::AtomicBool;
 
+use sinscal_core::calib::result::NoiseSource;
 use sinscal_core::calib::sources::calibrate_simulated;
 use sinscal_core::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions, NoiseDensity};
 use sinscal_core::compensation::thermal::ThermalTerms;
@@ -22,7 +23,7 @@ use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::io::run::write_simulated_run;
 use sinscal_core::model::ErrorParameters;
 use sinscal_core::pipeline::{calibrate_file, compensate_file, CompensateTarget};
-use sinscal_core::sim::Noise;
+use sinscal_core::sim::{Noise, SimConfig};
 use thermal_support::*;
 
 #[test]
@@ -93,6 +94,48 @@ fn noise_free_chamber_ramps_return_their_thermal_coefficients() {
         assert!(r.model_check.as_ref().unwrap().adequate);
     }
 }
+
+/// A quadratic thermal term the in-run linear states lack fails the model
+/// check of a real unit's run, whose noise (pulses, bias instability) the
+/// calibration fits: the fit carries quadratic states, so its wander does
+/// not take the curvature up. The same run without the term passes. The
+/// chamber's rising ramp at 20 Hz; the size at which the check starts to
+/// see the term: `cargo bench --bench thermal -- 4 quadratic --real`.
+#[test]
+fn a_thermal_curvature_the_linear_states_lack_fails_a_real_unit_s_check() {
+    let opts = EstimateOptions {
+        model: ErrorModel::base().and(Effect::Thermal),
+        cross_check: false,
+        ..EstimateOptions::default()
+    };
+    let noise = Noise {
+        gyro_quantum_arcsec: 1.0,
+        accel_quantum_mps: 1e-4,
+        gyro_bias_instability_deg_h: 0.001,
+        accel_bias_instability_ug: 1.0,
+        ..Noise::default_navigation_grade()
+    };
+    for (quadratic_ug_per_c2, adequate) in [(0.0, true), (CURVATURE_SEEN_UG_PER_C2, false)] {
+        let cfg = SimConfig {
+            thermal: Some(chamber_truth(&[("accel_bias_x", quadratic_ug_per_c2)])),
+            ..chamber_config(ChamberRamp::Rising, 20.0, noise.clone(), 3)
+        };
+        let r = calibrate_simulated(&cfg, &opts).unwrap();
+        let fitted = r.noise_model.as_ref().unwrap();
+        assert_eq!(fitted.source, NoiseSource::Fitted);
+        let check = r.model_check.as_ref().unwrap();
+        assert_eq!(
+            check.adequate, adequate,
+            "accel_bias_x quadratic {quadratic_ug_per_c2} µg/°C²: {}",
+            check.summary
+        );
+    }
+}
+
+/// A curvature of the accelerometer bias several times the size the
+/// check starts to see (FIGURES, Thermal): 7.5 µg above the linear fit's
+/// chord at the middle of the 40 °C ramp.
+const CURVATURE_SEEN_UG_PER_C2: f64 = 0.05;
 
 #[test]
 fn without_thermal_states_the_run_proposes_them() {

@@ -14,6 +14,10 @@ use crate::model::{Group, PARAMETERS};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
+/// The temperature span over which a quadratic thermal state's prior
+/// matches its linear one's (°C).
+const CURVATURE_PRIOR_SPAN_C: f64 = 20.0;
+
 /// The families whose linear temperature coefficients the in-run thermal
 /// states carry: the biases and scale factors, which move most with
 /// temperature, and the mountings, whose hundredths of an arcsec per °C
@@ -28,6 +32,17 @@ pub const THERMAL_LINEAR: [Group; 6] = [
     Group::AccelBias,
     Group::AccelScale,
     Group::AccelMisalign,
+];
+
+/// The families whose quadratic temperature coefficients are carried while
+/// an in-run thermal calibration's noise is fitted: the biases and scale
+/// factors (the mountings' curvature is left out to keep that pass
+/// small).
+pub const THERMAL_CURVATURE: [Group; 4] = [
+    Group::GyroBias,
+    Group::GyroScale,
+    Group::AccelBias,
+    Group::AccelScale,
 ];
 
 /// A SPEC §3 effect, as a family of states.
@@ -51,6 +66,12 @@ pub enum Effect {
     /// and scale factors (12 states) and the gyro bias against the rate
     /// of change of temperature (3). Needs the run's temperature column.
     Thermal,
+    /// SPEC §3a's quadratic coefficients of the biases and scale factors
+    /// (12 states). Not a model a calibration reports: carried while the
+    /// noise model of an in-run thermal calibration is fitted, so that the
+    /// fitted wander does not take up a curvature the linear states lack
+    /// (the model check is then left to see it). Not among `ALL`.
+    ThermalCurvature,
 }
 
 impl Effect {
@@ -83,6 +104,7 @@ impl Effect {
             Effect::BiasDrift => "bias_drift",
             Effect::GyroScaleAsymmetry => "gyro_scale_asymmetry",
             Effect::Thermal => "thermal",
+            Effect::ThermalCurvature => "thermal_curvature",
         }
     }
 
@@ -115,6 +137,11 @@ impl Effect {
                 .map(S::ThermalLinear)
                 .chain((0..3).map(S::GyroBiasRate))
                 .collect(),
+            Effect::ThermalCurvature => THERMAL_CURVATURE
+                .iter()
+                .flat_map(|g| g.range())
+                .map(S::ThermalQuadratic)
+                .collect(),
         }
     }
 }
@@ -134,6 +161,7 @@ impl EffectParameter {
             S::AccelBiasDrift(i) => format!("bias_drift_accel_{}", AXES[i]),
             S::GyroScaleAsymmetry(i) => format!("gyro_scale_asymmetry_{}", AXES[i]),
             S::ThermalLinear(i) => format!("thermal.linear.{}", PARAMETERS[i].name),
+            S::ThermalQuadratic(i) => format!("thermal.quadratic.{}", PARAMETERS[i].name),
             S::GyroBiasRate(i) => format!("thermal.gyro_bias_rate.{}", AXES[i]),
         }
     }
@@ -156,6 +184,13 @@ impl EffectParameter {
                 Group::GyroMisalign | Group::AccelMisalign => "arcsec/degC",
                 Group::AccelQuad => "ug/g^2/degC",
             },
+            S::ThermalQuadratic(i) => match PARAMETERS[i].group {
+                Group::GyroBias => "deg/h/degC^2",
+                Group::AccelBias => "ug/degC^2",
+                Group::GyroScale | Group::AccelScale => "ppm/degC^2",
+                Group::GyroMisalign | Group::AccelMisalign => "arcsec/degC^2",
+                Group::AccelQuad => "ug/g^2/degC^2",
+            },
             S::GyroBiasRate(_) => "deg/h/(degC/min)",
         }
     }
@@ -171,7 +206,7 @@ impl EffectParameter {
             S::AccelBiasDrift(_) => UG / HOUR,
             S::GyroScaleAsymmetry(_) => PPM,
             // Per °C: the parameter's own unit.
-            S::ThermalLinear(i) => PARAMETERS[i].si_per_unit,
+            S::ThermalLinear(i) | S::ThermalQuadratic(i) => PARAMETERS[i].si_per_unit,
             // (deg/h) per (°C/min) is DEG_PER_H rad/s per (1/60 °C/s).
             S::GyroBiasRate(_) => DEG_PER_H * 60.0,
         }
@@ -203,6 +238,11 @@ impl EffectParameter {
                 Group::GyroMisalign | Group::AccelMisalign => 1.0,
                 Group::AccelQuad => 5.0,
             },
+            // The linear coefficient's prior over 20 °C, the largest |ΔT|
+            // from 25 °C a chamber run spends most of its time at: a
+            // curvature several times the size that bends a 40 °C ramp by
+            // its linear term's tenth.
+            S::ThermalQuadratic(i) => S::ThermalLinear(i).prior_sigma() / CURVATURE_PRIOR_SPAN_C,
             // RLG biases move by hundredths of a deg/h at a chamber's
             // fastest ramps (a few °C/min).
             S::GyroBiasRate(_) => 0.1,

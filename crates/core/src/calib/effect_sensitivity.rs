@@ -54,6 +54,10 @@ pub enum EffectParameter {
     /// scale factor), SI per °C: the parameter is p + p1 ΔT at every
     /// instant.
     ThermalLinear(usize),
+    /// SPEC §3a p2 of base parameter `.0`, SI per °C²: the parameter is
+    /// p + p1 ΔT + p2 ΔT². Carried only while the noise model is fitted
+    /// to an in-run thermal calibration (`estimate::refit_noise`).
+    ThermalQuadratic(usize),
     /// SPEC §3a k of gyro `.0`: the bias k Ṫ, (rad/s) per (°C/s).
     GyroBiasRate(usize),
 }
@@ -177,6 +181,10 @@ pub fn effect_column(p: EffectParameter, m: &RecordMotion) -> (Rows, Vector3<f64
         EffectParameter::ThermalLinear(i) => {
             let (rows, col) = base_column_b(i, &dtheta, &dv, m.dt);
             sensed(m, rows, col * m.delta_c)
+        }
+        EffectParameter::ThermalQuadratic(i) => {
+            let (rows, col) = base_column_b(i, &dtheta, &dv, m.dt);
+            sensed(m, rows, col * (m.delta_c * m.delta_c))
         }
         EffectParameter::GyroBiasRate(i) => sensed(m, A, axis(i) * (m.rate_c_per_s * m.dt)),
     }

@@ -123,6 +123,17 @@ impl NoiseModel {
             .any(|q| *q > 0.0)
     }
 
+    /// The model with its wandering terms (instability, random walk)
+    /// removed: white noise and pulses only.
+    pub fn without_wander(&self) -> Self {
+        let mut m = *self;
+        for t in [&mut m.gyro, &mut m.accel] {
+            t.instability = [0.0; 3];
+            t.random_walk = [0.0; 3];
+        }
+        m
+    }
+
     /// White noise only: section 2's sensor, without any §2a term.
     pub fn is_white(&self) -> bool {
         !self.wanders() && !self.pulses()

@@ -135,7 +135,9 @@ pub(crate) fn run_thermal(
 pub(crate) fn is_thermal(state: EffectParameter) -> bool {
     matches!(
         state,
-        EffectParameter::ThermalLinear(_) | EffectParameter::GyroBiasRate(_)
+        EffectParameter::ThermalLinear(_)
+            | EffectParameter::ThermalQuadratic(_)
+            | EffectParameter::GyroBiasRate(_)
     )
 }
 

@@ -78,7 +78,7 @@ fn units_of(effect: Effect) -> &'static [(&'static str, f64, &'static str)] {
         Effect::GyroScaleAsymmetry => &[("ppm", 1.0, "ppm")],
         // Not a goal of scheme design: it follows the temperature, not
         // the turns (`Effect::MOTION` is what `--detect` accepts).
-        Effect::Thermal => &[],
+        Effect::Thermal | Effect::ThermalCurvature => &[],
     }
 }
 
