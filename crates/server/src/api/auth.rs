@@ -1,8 +1,16 @@
 //! Bearer tokens with roles. A token is 32 random bytes shown once; the
 //! database holds only its sha256, so a leaked database grants nothing.
 //! Tokens are never logged.
+//!
+//! [`Auth`] says who is calling; which roles a handler admits is stated by
+//! the [`Caller`] it extracts instead (see `caller`), with the role sets in
+//! [`roles`].
 
-use axum::extract::FromRequestParts;
+mod caller;
+pub mod roles;
+
+pub use self::caller::Caller;
+
 use axum::http::header::AUTHORIZATION;
 use axum::http::request::Parts;
 use rand::RngCore;
@@ -29,27 +37,12 @@ pub fn hash_token(token: &str) -> String {
     hex::encode(Sha256::digest(token.as_bytes()))
 }
 
-/// The caller, authenticated by its bearer token.
+/// The caller, authenticated by its bearer token, its role not yet
+/// checked against anything: handlers take a [`Caller`].
 #[derive(Clone, Debug)]
 pub struct Auth {
     pub token_id: String,
     pub role: Role,
-}
-
-impl Auth {
-    /// Allows the call if the caller's role is one of `roles`.
-    pub fn require(&self, roles: &[Role]) -> Result<(), ApiError> {
-        if roles.contains(&self.role) {
-            Ok(())
-        } else {
-            Err(ApiError::Forbidden(match roles {
-                [Role::Admin] => "admin",
-                [Role::Station, Role::Admin] => "station or admin",
-                [Role::Engineer, Role::Admin] => "engineer or admin",
-                _ => "station, engineer or admin",
-            }))
-        }
-    }
 }
 
 impl Auth {
@@ -60,26 +53,11 @@ impl Auth {
     pub fn may_read_run(&self, uploaded_by: Option<&str>) -> bool {
         self.role != Role::Station || uploaded_by == Some(self.token_id.as_str())
     }
-}
 
-/// Who may do what.
-pub mod roles {
-    use crate::store::Role;
-    /// Upload runs.
-    pub const UPLOAD: &[Role] = &[Role::Station, Role::Admin];
-    /// Read a run or a job: stations follow the Location of their own
-    /// uploads only (see [`Auth::may_read_run`]).
-    pub const FOLLOW: &[Role] = &[Role::Station, Role::Engineer, Role::Admin];
-    /// Read results, units, history, statistics, product types; cancel jobs.
-    pub const ENGINEER: &[Role] = &[Role::Engineer, Role::Admin];
-    /// Tokens, deletes, product types.
-    pub const ADMIN: &[Role] = &[Role::Admin];
-}
-
-impl FromRequestParts<AppState> for Auth {
-    type Rejection = ApiError;
-
-    async fn from_request_parts(parts: &mut Parts, state: &AppState) -> Result<Self, ApiError> {
+    /// The bearer token's caller, or 401. Not an extractor of its own: a
+    /// handler that took an `Auth` could forget to check its role, so
+    /// handlers take a [`Caller`], which calls this first.
+    async fn authenticate(parts: &Parts, state: &AppState) -> Result<Auth, ApiError> {
         let header = parts
             .headers
             .get(AUTHORIZATION)

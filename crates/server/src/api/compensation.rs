@@ -10,7 +10,7 @@ use axum::routing::get;
 use axum::Router;
 use serde::Deserialize;
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::{parse_id, AppState};
 use crate::store::RunId;
@@ -38,11 +38,10 @@ struct CompensationQuery {
 
 async fn get_compensation(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<CompensationQuery>, QueryRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let Query(q) = query?;
     let file = compensation_of(&st, id).await?;

@@ -6,7 +6,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Serialize;
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::{parse_id, rfc3339, AppState};
 use crate::store::{JobId, JobKind, JobRow, JobState, Role, RunId};
@@ -64,10 +64,9 @@ pub fn router() -> Router<AppState> {
 
 async fn get_job(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Follow>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<JobView>, ApiError> {
-    auth.require(roles::FOLLOW)?;
     let id: JobId = parse_id(path?.0, "job")?;
     let not_found = || ApiError::NotFound(format!("no job {id}"));
     let job = st.store.get_job(id).await?.ok_or_else(not_found)?;
@@ -89,10 +88,9 @@ async fn get_job(
 /// job cannot be cancelled (409); cancelling a cancelled job is a no-op.
 async fn cancel_job(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<JobView>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: JobId = parse_id(path?.0, "job")?;
     let job = st
         .store

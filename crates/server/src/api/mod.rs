@@ -29,7 +29,7 @@ use tokio::sync::{Notify, Semaphore};
 use tower_http::limit::RequestBodyLimitLayer;
 use tower_http::trace::TraceLayer;
 
-use self::auth::{roles, Auth};
+use self::auth::{roles, Caller};
 use self::error::{problem_response, ApiError, PROBLEM_JSON};
 use crate::config::Config;
 use crate::metrics::Metrics;
@@ -286,8 +286,10 @@ async fn not_ready(st: &AppState) -> Option<String> {
     None
 }
 
-async fn metrics(State(st): State<AppState>, auth: Auth) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
+async fn metrics(
+    State(st): State<AppState>,
+    _: Caller<roles::Engineer>,
+) -> Result<Response, ApiError> {
     let counts = st.store.job_counts().await?;
     Ok((
         [(
@@ -302,8 +304,7 @@ async fn metrics(State(st): State<AppState>, auth: Auth) -> Result<Response, Api
         .into_response())
 }
 
-async fn openapi(auth: Auth) -> Result<Response, ApiError> {
-    auth.require(roles::FOLLOW)?;
+async fn openapi(_: Caller<roles::Follow>) -> Result<Response, ApiError> {
     Ok(([(header::CONTENT_TYPE, "application/yaml")], OPENAPI_YAML).into_response())
 }
 

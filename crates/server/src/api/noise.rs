@@ -16,7 +16,7 @@ use axum::extract::{Path, State};
 use axum::routing::get;
 use axum::{Json, Router};
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::{parse_id, AppState};
 use crate::store::RunId;
@@ -43,10 +43,9 @@ impl Drop for CancelOnDrop {
 
 async fn get_noise(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<NoiseReport>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     Ok(Json(analyse_noise(&st, id).await?))
 }

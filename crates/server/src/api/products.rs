@@ -9,7 +9,7 @@ use axum::routing::get;
 use axum::{Json, Router};
 use serde::{Deserialize, Serialize};
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::{rfc3339, AppState};
 use crate::store::{ProductTypeChange, ProductTypeRow};
@@ -96,9 +96,8 @@ fn check_description(d: Option<&str>) -> Result<(), ApiError> {
 
 async fn list_product_types(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
 ) -> Result<Json<Vec<ProductTypeView>>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let rows = st.store.list_product_types().await?;
     Ok(Json(
         rows.into_iter()
@@ -109,10 +108,9 @@ async fn list_product_types(
 
 async fn get_product_type(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<ProductTypeView>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let name = name_of(path)?;
     let row = st
         .store
@@ -124,10 +122,9 @@ async fn get_product_type(
 
 async fn create_product_type(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Admin>,
     body: Result<Json<NewProductType>, JsonRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ADMIN)?;
     let Json(req) = body?;
     let row = save_product_type(
         &st,
@@ -148,11 +145,10 @@ async fn create_product_type(
 
 async fn update_product_type(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Admin>,
     path: Result<Path<String>, PathRejection>,
     body: Result<Json<ProductTypeUpdate>, JsonRejection>,
 ) -> Result<Json<ProductTypeView>, ApiError> {
-    auth.require(roles::ADMIN)?;
     let name = name_of(path)?;
     let Json(req) = body?;
     let row = save_product_type(
@@ -169,10 +165,9 @@ async fn update_product_type(
 
 async fn delete_product_type(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Admin>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<StatusCode, ApiError> {
-    auth.require(roles::ADMIN)?;
     let name = name_of(path)?;
     remove_product_type(&st, &auth, &name).await?;
     Ok(StatusCode::NO_CONTENT)
@@ -183,7 +178,7 @@ async fn delete_product_type(
 /// again by the store.
 pub(crate) async fn save_product_type(
     st: &AppState,
-    auth: &Auth,
+    auth: &Caller<roles::Admin>,
     name: &str,
     description: Option<&str>,
     limits: &serde_json::Value,
@@ -218,7 +213,7 @@ pub(crate) async fn save_product_type(
 
 pub(crate) async fn remove_product_type(
     st: &AppState,
-    auth: &Auth,
+    auth: &Caller<roles::Admin>,
     name: &str,
 ) -> Result<(), ApiError> {
     if st.store.delete_product_type(name, &auth.token_id).await? {

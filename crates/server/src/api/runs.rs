@@ -11,7 +11,7 @@ use axum::routing::{get, post};
 use axum::{Json, Router};
 use serde::Serialize;
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Auth, Caller};
 use super::error::ApiError;
 use super::jobs::JobView;
 use super::upload::queue_full;
@@ -139,10 +139,9 @@ pub(crate) async fn stored_run(st: &AppState, id: RunId) -> Result<RunRow, ApiEr
 
 async fn get_run(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Follow>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<RunView>, ApiError> {
-    auth.require(roles::FOLLOW)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let run = readable_run(&st, &auth, id).await?;
     Ok(Json(RunView::from_row(run)?))
@@ -165,10 +164,9 @@ pub(crate) async fn readable_run(
 
 async fn get_result(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let json = result_document(&st, id).await?;
     Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response())
@@ -217,10 +215,9 @@ fn with_verdict(doc: String, verdict: Option<&VerdictView>) -> Result<String, Ap
 
 async fn delete_run(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Admin>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<StatusCode, ApiError> {
-    auth.require(roles::ADMIN)?;
     let id: RunId = parse_id(path?.0, "run")?;
     remove_run(&st, id).await?;
     Ok(StatusCode::NO_CONTENT)
@@ -261,10 +258,9 @@ fn job_answer(status: StatusCode, job: JobRow) -> Response {
 /// not stack up copies of a minutes-long job.
 async fn diagnose_run(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let queued = queue_diagnosis(&st, id).await?;
     let status = if queued.created {
@@ -279,10 +275,9 @@ async fn diagnose_run(
 /// has one; 409 while its calibration is queued or running.
 async fn recalibrate_run(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let job = queue_recalibration(&st, id).await?;
     Ok(job_answer(StatusCode::ACCEPTED, job))
@@ -365,10 +360,9 @@ pub(crate) async fn latest_report(st: &AppState, id: RunId) -> Result<String, Ap
 
 async fn get_diagnosis(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let json = latest_report(&st, id).await?;
     // Stored as serialized by the workflow's own types: served as is.
@@ -377,10 +371,9 @@ async fn get_diagnosis(
 
 async fn get_diagnosis_gap_svg(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let id: RunId = parse_id(path?.0, "run")?;
     let json = latest_report(&st, id).await?;
     let report: DiagnoseReport = serde_json::from_str(&json)

@@ -16,7 +16,7 @@ use axum::routing::post;
 use axum::{Json, Router};
 use serde::Deserialize;
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::AppState;
 use sinscal_core::calib::NoiseDensity;
@@ -128,10 +128,9 @@ impl DesignBody {
 
 async fn design_scheme(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     body: Result<Json<DesignBody>, JsonRejection>,
 ) -> Result<Json<Design>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let Json(body) = body?;
     let req = body.request(st.config.design_time_limit.as_secs_f64())?;
     let permit = st

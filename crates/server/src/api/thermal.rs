@@ -14,7 +14,7 @@ use axum::routing::get;
 use axum::{Json, Router};
 use serde::Deserialize;
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::compensation::{file_response, FileForm};
 use super::error::ApiError;
 use super::{parse_time, AppState};
@@ -49,11 +49,10 @@ pub struct ThermalQuery {
 
 async fn get_thermal(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<ThermalQuery>, QueryRejection>,
 ) -> Result<Json<ThermalModel>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let serial: UnitSerial = path?.0.parse().map_err(ApiError::BadRequest)?;
     let Query(q) = query?;
     Ok(Json(unit_thermal_model(&st, &serial, &q).await?.0))
@@ -72,11 +71,10 @@ struct ThermalCompensationQuery {
 
 async fn get_thermal_compensation(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<ThermalCompensationQuery>, QueryRejection>,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let serial: UnitSerial = path?.0.parse().map_err(ApiError::BadRequest)?;
     let Query(q) = query?;
     let filter = ThermalQuery {

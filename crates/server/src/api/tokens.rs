@@ -7,7 +7,7 @@ use axum::routing::{delete, get};
 use axum::{Json, Router};
 use serde::{Deserialize, Serialize};
 
-use super::auth::{new_token, roles, Auth};
+use super::auth::{new_token, roles, Caller};
 use super::error::ApiError;
 use super::{parse_id, rfc3339, AppState};
 use crate::store::Role;
@@ -45,10 +45,9 @@ pub fn router() -> Router<AppState> {
 
 async fn create_token(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Admin>,
     body: Result<Json<NewTokenRequest>, JsonRejection>,
 ) -> Result<(StatusCode, Json<NewTokenView>), ApiError> {
-    auth.require(roles::ADMIN)?;
     let Json(req) = body?;
     Ok((StatusCode::CREATED, Json(issue_token(&st, req).await?)))
 }
@@ -80,9 +79,8 @@ pub(crate) async fn issue_token(
 
 async fn list_tokens(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Admin>,
 ) -> Result<Json<Vec<TokenView>>, ApiError> {
-    auth.require(roles::ADMIN)?;
     let rows = st.store.list_tokens().await?;
     Ok(Json(
         rows.into_iter()
@@ -99,10 +97,9 @@ async fn list_tokens(
 
 async fn revoke_token(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Admin>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<StatusCode, ApiError> {
-    auth.require(roles::ADMIN)?;
     // A token's id is a UUID too, kept as its text.
     let id: uuid::Uuid = parse_id(path?.0, "token")?;
     revoke(&st, &auth, &id.to_string()).await?;
@@ -110,7 +107,11 @@ async fn revoke_token(
 }
 
 /// Revokes another live token; its sessions end with it.
-pub(crate) async fn revoke(st: &AppState, auth: &Auth, id: &str) -> Result<(), ApiError> {
+pub(crate) async fn revoke(
+    st: &AppState,
+    auth: &Caller<roles::Admin>,
+    id: &str,
+) -> Result<(), ApiError> {
     if id == auth.token_id {
         return Err(ApiError::Conflict("a token cannot revoke itself".into()));
     }

@@ -8,7 +8,7 @@ use axum::routing::get;
 use axum::{Json, Router};
 use serde::{Deserialize, Serialize};
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
@@ -179,10 +179,9 @@ fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<UnitSerial, Ap
 
 async fn list_units(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     query: Result<Query<UnitsQuery>, QueryRejection>,
 ) -> Result<Json<UnitList>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let Query(q) = query?;
     let (limit, offset) = page(q.limit, q.offset)?;
     if let Some(p) = &q.product {
@@ -207,10 +206,9 @@ async fn list_units(
 
 async fn get_unit(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Json<UnitDetail>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let serial = serial_of(path)?;
     let unit = st
         .store
@@ -226,11 +224,10 @@ async fn get_unit(
 
 async fn history(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<HistoryQuery>, QueryRejection>,
 ) -> Result<Json<History>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let serial = serial_of(path)?;
     let Query(q) = query?;
     let (limit, offset) = page(q.limit, q.offset)?;
@@ -279,11 +276,10 @@ async fn history(
 
 async fn repeatability(
     State(st): State<AppState>,
-    auth: Auth,
+    _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<RepeatabilityQuery>, QueryRejection>,
 ) -> Result<Json<Repeatability>, ApiError> {
-    auth.require(roles::ENGINEER)?;
     let serial = serial_of(path)?;
     let Query(q) = query?;
     if let Some(last) = q.last {

@@ -20,7 +20,7 @@ use futures_util::{Stream, StreamExt, TryStreamExt};
 use serde::Deserialize;
 use sha2::{Digest, Sha256};
 
-use super::auth::{roles, Auth};
+use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
 pub use super::upload_store::{queue_full, UploadAnswer};
@@ -302,13 +302,12 @@ fn check_free_space(st: &AppState) -> Result<(), ApiError> {
 
 pub async fn upload(
     State(st): State<AppState>,
-    auth: Auth,
+    auth: Caller<roles::Upload>,
     path: Result<Path<String>, PathRejection>,
     query: Result<Query<UploadQuery>, QueryRejection>,
     headers: HeaderMap,
     req: Request,
 ) -> Result<Response, ApiError> {
-    auth.require(roles::UPLOAD)?;
     let serial: UnitSerial = path?.0.parse().map_err(ApiError::BadRequest)?;
     let Query(query) = query?;
     let _permit = admit(&st).await?;
@@ -381,13 +380,13 @@ async fn admit(st: &AppState) -> Result<tokio::sync::OwnedSemaphorePermit, ApiEr
 
 /// An upload from the pages' form: multipart with a `metadata` part and a
 /// `data` part, the unit named by the metadata. Everything else is the
-/// API's upload: the same checks, limits, pacing and storage.
+/// API's upload: the same checks, limits, pacing and storage (the role
+/// among them: only an uploader's [`Caller`] can be passed).
 pub(crate) async fn upload_form(
     st: &AppState,
-    auth: &Auth,
+    auth: &Caller<roles::Upload>,
     req: Request,
 ) -> Result<StoredRun, ApiError> {
-    auth.require(roles::UPLOAD)?;
     let _permit = admit(st).await?;
     let (parts, body) = req.into_parts();
     let req = Request::from_parts(

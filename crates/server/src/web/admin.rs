@@ -8,10 +8,11 @@ use axum::Form;
 use maud::{html, Markup};
 use serde::Deserialize;
 
+use super::access::{FormCaller, PageCaller};
 use super::error::PageError;
 use super::format;
 use super::layout::{self, action_button};
-use super::session::{see_other, CsrfForm, Session};
+use super::session::{see_other, CsrfForm};
 use crate::api::auth::roles;
 use crate::api::products::{remove_product_type, save_product_type};
 use crate::api::tokens::{issue_token, revoke, NewTokenRequest, NewTokenView};
@@ -26,10 +27,9 @@ const LIMITS_EXAMPLE: &str = r#"{
 
 async fn render(
     st: &AppState,
-    session: &Session,
+    session: &PageCaller<roles::Admin>,
     issued: Option<&NewTokenView>,
 ) -> Result<Html<String>, PageError> {
-    session.require(roles::ADMIN)?;
     let tokens = st.store.list_tokens().await?;
     let products = st.store.list_product_types().await?;
     let body = html! {
@@ -99,7 +99,10 @@ fn issued_notice(t: &NewTokenView) -> Markup {
     }
 }
 
-pub async fn page(State(st): State<AppState>, session: Session) -> Result<Html<String>, PageError> {
+pub async fn page(
+    State(st): State<AppState>,
+    session: PageCaller<roles::Admin>,
+) -> Result<Html<String>, PageError> {
     render(&st, &session, None).await
 }
 
@@ -114,11 +117,10 @@ pub struct TokenForm {
 
 pub async fn create_token(
     State(st): State<AppState>,
-    session: Session,
+    sender: FormCaller<roles::Admin>,
     Form(form): Form<TokenForm>,
 ) -> Result<Html<String>, PageError> {
-    session.check_csrf(&form.csrf)?;
-    session.require(roles::ADMIN)?;
+    let session = sender.check_csrf(&form.csrf)?;
     let label = form.label.trim();
     let issued = issue_token(
         &st,
@@ -133,15 +135,14 @@ pub async fn create_token(
 
 pub async fn revoke_token(
     State(st): State<AppState>,
-    session: Session,
+    sender: FormCaller<roles::Admin>,
     Path(id): Path<String>,
     Form(form): Form<CsrfForm>,
 ) -> Result<Response, PageError> {
-    session.check_csrf(&form.csrf)?;
-    session.require(roles::ADMIN)?;
+    let session = sender.check_csrf(&form.csrf)?;
     // A token's id is a UUID too, kept as its text.
     let id: uuid::Uuid = parse_id(id, "token")?;
-    revoke(&st, &session.auth, &id.to_string()).await?;
+    revoke(&st, session.caller(), &id.to_string()).await?;
     Ok(see_other("/admin"))
 }
 
@@ -157,29 +158,27 @@ pub struct ProductForm {
 
 pub async fn save_product(
     State(st): State<AppState>,
-    session: Session,
+    sender: FormCaller<roles::Admin>,
     Form(form): Form<ProductForm>,
 ) -> Result<Response, PageError> {
-    session.check_csrf(&form.csrf)?;
-    session.require(roles::ADMIN)?;
+    let session = sender.check_csrf(&form.csrf)?;
     let name = form.name.trim();
     let limits: serde_json::Value = serde_json::from_str(&form.limits)
         .map_err(|e| PageError::bad_request(format!("the limits are not JSON: {e}")))?;
     let description = form.description.trim();
     let description = (!description.is_empty()).then_some(description);
     let exists = st.store.get_product_type(name).await?.is_some();
-    save_product_type(&st, &session.auth, name, description, &limits, !exists).await?;
+    save_product_type(&st, session.caller(), name, description, &limits, !exists).await?;
     Ok(see_other("/admin"))
 }
 
 pub async fn delete_product(
     State(st): State<AppState>,
-    session: Session,
+    sender: FormCaller<roles::Admin>,
     Path(name): Path<String>,
     Form(form): Form<CsrfForm>,
 ) -> Result<Response, PageError> {
-    session.check_csrf(&form.csrf)?;
-    session.require(roles::ADMIN)?;
-    remove_product_type(&st, &session.auth, &name).await?;
+    let session = sender.check_csrf(&form.csrf)?;
+    remove_product_type(&st, session.caller(), &name).await?;
     Ok(see_other("/admin"))
 }

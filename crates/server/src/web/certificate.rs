@@ -6,20 +6,21 @@ use axum::extract::{Path, State};
 use axum::response::Html;
 use maud::html;
 
+use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::run::{engineer_run, parameter_table, parsed_result, product_limits};
-use super::session::Session;
+use super::run::{parameter_table, parsed_result, product_limits, readable_run};
+use crate::api::auth::roles;
 use crate::api::AppState;
 use sinscal_core::io::meta::RunMetadata;
 
 pub async fn page(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Engineer>,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
-    let run = engineer_run(&st, &session, id).await?;
+    let run = readable_run(&st, &session, id).await?;
     let result = parsed_result(&st, run.id).await?.ok_or_else(|| {
         PageError::not_found(format!("run {} has no result: no certificate yet", run.id))
     })?;

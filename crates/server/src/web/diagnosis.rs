@@ -6,11 +6,12 @@ use axum::extract::{Path, State};
 use axum::response::Html;
 use maud::{html, Markup, PreEscaped};
 
+use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::run::engineer_run;
-use super::session::Session;
+use super::run::readable_run;
+use crate::api::auth::roles;
 use crate::api::error::ApiError;
 use crate::api::AppState;
 use crate::plot::{Band, Chart, Point, Series, Style};
@@ -18,10 +19,10 @@ use sinscal_core::diagnose::{DiagnoseReport, DiagnoseStep};
 
 pub async fn page(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Engineer>,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
-    let run = engineer_run(&st, &session, id).await?;
+    let run = readable_run(&st, &session, id).await?;
     let json = crate::api::runs::latest_report(&st, run.id).await?;
     let report: DiagnoseReport = tokio::task::spawn_blocking(move || serde_json::from_str(&json))
         .await

@@ -10,6 +10,7 @@
 //! exactly what the matching API call does. Plots are `plot` charts inlined
 //! as SVG: a page is one request.
 
+mod access;
 mod admin;
 mod assets;
 mod certificate;

@@ -6,11 +6,12 @@ use axum::extract::{Path, State};
 use axum::response::Html;
 use maud::{html, Markup, PreEscaped};
 
+use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::run::engineer_run;
-use super::session::Session;
+use super::run::readable_run;
+use crate::api::auth::roles;
 use crate::api::noise::analyse_noise;
 use crate::api::AppState;
 use crate::plot::{Chart, Point, Scale, Series, Style};
@@ -88,10 +89,10 @@ fn term(t: &Term) -> Markup {
 
 pub async fn page(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Engineer>,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
-    let run = engineer_run(&st, &session, id).await?;
+    let run = readable_run(&st, &session, id).await?;
     let report = analyse_noise(&st, run.id).await?;
     let tau = &report.curves.tau_s;
     let gyro = allan_chart(

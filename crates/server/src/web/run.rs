@@ -11,30 +11,31 @@ use axum::response::{Html, IntoResponse, Response};
 use axum::Form;
 use maud::{html, Markup};
 
+use super::access::{FormCaller, PageCaller};
 use super::error::PageError;
 use super::format;
 use super::layout::{self, action_button};
 use super::run_plots::{convergence_charts, residual_chart};
-use super::session::{see_other, CsrfForm, Session};
-use crate::api::auth::roles;
+use super::session::{see_other, CsrfForm};
+use crate::api::auth::roles::{self, Implies};
 use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run};
 use crate::api::{parse_id, AppState};
-use crate::store::{JobRow, Role, RunId, RunRow, StoredVerdict};
+use crate::store::{JobRow, RunId, RunRow, StoredVerdict};
 use sinscal_core::accept::{LimitKind, ProductLimits, Verdict};
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::model::PARAMETERS;
 
 /// The run of a path's `id` if the session may read it (a station: its
-/// own uploads only, as in the API; others read as 404). The id is parsed
-/// here, after the role check, as the API parses it: a malformed one is
+/// own uploads only, as in the API; others read as 404). The role was
+/// checked by the caller's type (any set within [`roles::FOLLOW`]); the
+/// id is parsed here, after it, as the API parses it: a malformed one is
 /// the 404 of an unknown one.
-pub(super) async fn readable_run(
+pub(super) async fn readable_run<P: Implies<roles::Follow>>(
     st: &AppState,
-    session: &Session,
+    session: &PageCaller<P>,
     id: String,
 ) -> Result<RunRow, PageError> {
-    session.require(roles::FOLLOW)?;
     let id: RunId = parse_id(id, "run")?;
     Ok(crate::api::runs::readable_run(st, &session.auth, id).await?)
 }
@@ -79,7 +80,7 @@ pub(super) async fn product_limits(
 
 pub async fn page(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Follow>,
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = readable_run(&st, &session, id).await?;
@@ -208,7 +209,7 @@ fn progress_block(run: &RunRow, jobs: &RunJobs) -> Markup {
 /// running, a whole-page reload shows the result.
 pub async fn progress(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Follow>,
     Path(id): Path<String>,
 ) -> Result<Response, PageError> {
     let run = readable_run(&st, &session, id).await?;
@@ -374,27 +375,36 @@ impl RunAction {
         }
     }
 
-    fn roles(self) -> &'static [Role] {
+    /// Whether `session` may take this action: the roles depend on the
+    /// action, so they are checked here, once it is known, by narrowing
+    /// the caller (the same check the extractors make).
+    fn allowed(self, session: &PageCaller<roles::Follow>) -> Result<(), PageError> {
         match self {
-            RunAction::Diagnose | RunAction::Calibrate => roles::ENGINEER,
-            RunAction::Delete => roles::ADMIN,
+            RunAction::Diagnose | RunAction::Calibrate => {
+                session.narrow::<roles::Engineer>()?;
+            }
+            RunAction::Delete => {
+                session.narrow::<roles::Admin>()?;
+            }
         }
+        Ok(())
     }
 }
 
 /// `POST /runs/{id}/{diagnose|calibrate|delete}`: the button's action,
 /// through the API's own function, then back to the run (or, once
-/// deleted, to its unit).
+/// deleted, to its unit). The action is named first (404 for any other
+/// name), then the form's CSRF token is checked, then the action's role.
 pub async fn action(
     State(st): State<AppState>,
-    session: Session,
+    sender: FormCaller<roles::Follow>,
     Path((id, name)): Path<(String, String)>,
     Form(form): Form<CsrfForm>,
 ) -> Result<Response, PageError> {
     let action = RunAction::named(&name)
         .ok_or_else(|| PageError::not_found(format!("no run action {name:?}")))?;
-    session.check_csrf(&form.csrf)?;
-    session.require(action.roles())?;
+    let session = sender.check_csrf(&form.csrf)?;
+    action.allowed(&session)?;
     let run = readable_run(&st, &session, id).await?;
     match action {
         RunAction::Diagnose => {
@@ -433,28 +443,20 @@ impl RunFile {
     }
 }
 
-/// A run the session reads as an engineer (downloads and the pages built
-/// on a run's result).
-pub(super) async fn engineer_run(
-    st: &AppState,
-    session: &Session,
-    id: String,
-) -> Result<RunRow, PageError> {
-    session.require(roles::ENGINEER)?;
-    readable_run(st, session, id).await
-}
-
 /// `/runs/{id}/files/{name}`: the result (JSON as the API answers it, or
 /// CSV: one row per parameter, the 24 then effects) or the compensation
 /// file (JSON or CSV), as an attachment named for the unit and run.
+/// Engineers and admins only, checked once the file is named: an unknown
+/// file is 404 to every caller.
 pub async fn download(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Follow>,
     Path((id, name)): Path<(String, String)>,
 ) -> Result<Response, PageError> {
     let (name, file) = RunFile::named(&name)
         .ok_or_else(|| PageError::not_found(format!("no run file {name:?}")))?;
-    let run = engineer_run(&st, &session, id).await?;
+    let session = session.narrow::<roles::Engineer>()?;
+    let run = readable_run(&st, &session, id).await?;
     let (content_type, body) = match file {
         RunFile::ResultJson => (
             "application/json",

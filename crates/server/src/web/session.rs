@@ -29,7 +29,9 @@ pub(super) const SESSION_SECONDS: i64 = 12 * 3600;
 /// Time to fill in the sign-in form.
 pub(super) const SIGNIN_SECONDS: i64 = 600;
 
-/// The caller of a page: the token its session acts for.
+/// The caller of a page: the token its session acts for, whatever its
+/// role. A page that admits only some roles takes a role-typed session
+/// instead (`access`).
 #[derive(Clone, Debug)]
 pub struct Session {
     pub auth: Auth,
@@ -54,11 +56,6 @@ impl Session {
                     .into(),
             ))
         }
-    }
-
-    /// Allows the page or action if the session's role is one of `roles`.
-    pub fn require(&self, roles: &[Role]) -> Result<(), PageError> {
-        self.auth.require(roles).map_err(PageError::from)
     }
 
     pub fn role(&self) -> Role {

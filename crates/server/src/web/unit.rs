@@ -10,10 +10,10 @@ use axum::response::Html;
 use maud::{html, Markup};
 use serde::Deserialize;
 
+use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::session::Session;
 use super::unit_tables::{repeatability_table, trend_charts, UnitRun};
 use super::unit_thermal::thermal_section;
 use crate::api::auth::roles;
@@ -41,11 +41,10 @@ pub struct UnitQuery {
 
 pub async fn page(
     State(st): State<AppState>,
-    session: Session,
+    session: PageCaller<roles::Engineer>,
     Path(serial): Path<String>,
     query: Result<Query<UnitQuery>, QueryRejection>,
 ) -> Result<Html<String>, PageError> {
-    session.require(roles::ENGINEER)?;
     let serial: UnitSerial = serial.parse().map_err(PageError::bad_request)?;
     let Query(q) = query.map_err(|e| PageError::bad_request(e.body_text()))?;
     let unit = st

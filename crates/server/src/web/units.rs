@@ -9,6 +9,7 @@ use axum::response::{Html, IntoResponse, Response};
 use maud::html;
 use serde::Deserialize;
 
+use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
@@ -47,7 +48,7 @@ pub async fn page(
     if session.role() == Role::Station {
         return Ok(see_other("/upload"));
     }
-    session.require(roles::ENGINEER)?;
+    let session = PageCaller::<roles::Engineer>::new(session)?;
     let Query(q) = query.map_err(|e| PageError::bad_request(e.body_text()))?;
     let verdict = match q.verdict.as_str() {
         "" => None,

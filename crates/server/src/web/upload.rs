@@ -9,18 +9,21 @@ use axum::response::{Html, Response};
 use maud::html;
 use serde::Deserialize;
 
+use super::access::{FormCaller, PageCaller};
 use super::error::PageError;
 use super::format;
 use super::layout;
-use super::session::{see_other, Session};
+use super::session::see_other;
 use crate::api::auth::roles;
 use crate::api::upload::upload_form;
 use crate::api::AppState;
 
 const RECENT_UPLOADS: i64 = 20;
 
-pub async fn page(State(st): State<AppState>, session: Session) -> Result<Html<String>, PageError> {
-    session.require(roles::UPLOAD)?;
+pub async fn page(
+    State(st): State<AppState>,
+    session: PageCaller<roles::Upload>,
+) -> Result<Html<String>, PageError> {
     let recent = st
         .store
         .runs_uploaded_by(&session.auth.token_id, RECENT_UPLOADS)
@@ -61,12 +64,11 @@ pub struct UploadTarget {
 
 pub async fn submit(
     State(st): State<AppState>,
-    session: Session,
+    sender: FormCaller<roles::Upload>,
     Query(target): Query<UploadTarget>,
     req: Request,
 ) -> Result<Response, PageError> {
-    session.check_csrf(&target.csrf)?;
-    session.require(roles::UPLOAD)?;
-    let stored = upload_form(&st, &session.auth, req).await?;
+    let session = sender.check_csrf(&target.csrf)?;
+    let stored = upload_form(&st, session.caller(), req).await?;
     Ok(see_other(&format!("/runs/{}", stored.run_id)))
 }
