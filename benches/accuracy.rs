@@ -31,11 +31,14 @@
 use rand::SeedableRng;
 
 use sinscal_core::calib::sources::calibrate_simulated;
-use sinscal_core::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::calib::{CalibrationResult, EstimateOptions, NoiseDensity};
 use sinscal_core::model::params::paper_accuracy;
 use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal_core::nav::Site;
 use sinscal_core::sim::{Noise, Scheme, SimConfig};
+
+/// The number of parameter families (`Group::ALL`).
+const FAMILIES: usize = 7;
 
 /// The truth and start attitude (deg) of seed `seed` in `--raw` mode.
 fn raw_unit(seed: u64) -> (String, ErrorParameters, [f64; 3]) {
@@ -79,201 +82,330 @@ fn value<T: std::str::FromStr>(args: &[String], flag: &str) -> Option<T> {
         .and_then(|v| v.parse().ok())
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let tactical = args.iter().any(|a| a == "--tactical");
-    let known_noise = args.iter().any(|a| a == "--known-noise");
-    let dwell: f64 = value(&args, "--dwell").unwrap_or(600.0);
-    let rate: f64 = value(&args, "--rate").unwrap_or(100.0);
-    let latitude: f64 = value(&args, "--latitude").unwrap_or(Site::REFERENCE.latitude_deg);
-    let random = args.iter().any(|a| a == "--random");
-    let turned = args.iter().any(|a| a == "--turned");
-    let turn_rate: Option<f64> = value(&args, "--turn-rate");
-    let per_seed = args.iter().any(|a| a == "--per-seed");
-    let raw = args.iter().any(|a| a == "--raw");
-    let by_hand = args.iter().any(|a| a == "--by-hand");
-    let scheme_file: Option<String> = value(&args, "--scheme");
-    let flags = [
-        "--dwell",
-        "--rate",
-        "--window",
-        "--latitude",
-        "--turn-rate",
-        "--scheme",
-    ];
-    let n: u64 = args
-        .iter()
-        .enumerate()
-        .filter(|(i, _)| *i == 0 || !flags.contains(&args[i - 1].as_str()))
-        .find_map(|(_, a)| a.parse().ok())
-        .unwrap_or(if raw { 9 } else { 20 });
-    let site = Site {
-        latitude_deg: latitude,
-        ..Site::REFERENCE
+/// The bench's command line, read once (see the file's doc).
+struct Flags {
+    /// Seeds 1…`seeds`: the first number that is no flag's value.
+    seeds: u64,
+    tactical: bool,
+    known_noise: bool,
+    /// s.
+    dwell: f64,
+    /// Hz.
+    rate: f64,
+    /// deg.
+    latitude: f64,
+    random: bool,
+    turned: bool,
+    /// deg/s.
+    turn_rate: Option<f64>,
+    per_seed: bool,
+    raw: bool,
+    by_hand: bool,
+    scheme_file: Option<String>,
+    /// s.
+    window: Option<f64>,
+}
+
+impl Flags {
+    fn from_env() -> Self {
+        let args: Vec<String> = std::env::args().skip(1).collect();
+        let switch = |flag: &str| args.iter().any(|a| a == flag);
+        let raw = switch("--raw");
+        let with_value = [
+            "--dwell",
+            "--rate",
+            "--window",
+            "--latitude",
+            "--turn-rate",
+            "--scheme",
+        ];
+        let seeds = args
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i == 0 || !with_value.contains(&args[i - 1].as_str()))
+            .find_map(|(_, a)| a.parse().ok())
+            .unwrap_or(if raw { 9 } else { 20 });
+        Flags {
+            seeds,
+            tactical: switch("--tactical"),
+            known_noise: switch("--known-noise"),
+            dwell: value(&args, "--dwell").unwrap_or(600.0),
+            rate: value(&args, "--rate").unwrap_or(100.0),
+            latitude: value(&args, "--latitude").unwrap_or(Site::REFERENCE.latitude_deg),
+            random: switch("--random"),
+            turned: switch("--turned"),
+            turn_rate: value(&args, "--turn-rate"),
+            per_seed: switch("--per-seed"),
+            raw,
+            by_hand: switch("--by-hand"),
+            scheme_file: value(&args, "--scheme"),
+            window: value(&args, "--window"),
+        }
+    }
+}
+
+/// Seed k's truth and start attitude (deg).
+fn truth_and_start(seed: u64, flags: &Flags) -> (ErrorParameters, [f64; 3]) {
+    let (_, raw_truth, raw_start) = raw_unit(seed);
+    let truth = if flags.raw {
+        raw_truth
+    } else if flags.random {
+        ErrorParameters::random(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed))
+    } else {
+        ErrorParameters::paper()
     };
+    let start = if flags.raw {
+        raw_start
+    } else if flags.turned {
+        let k = seed as f64;
+        [
+            5.0 * (1.3 * k).sin(),
+            5.0 * (2.1 * k).cos(),
+            (97.0 * k) % 360.0,
+        ]
+    } else {
+        [0.1, -0.1, 2.0]
+    };
+    (truth, start)
+}
+
+/// Seed k's scheme: the reference one or `--scheme`'s, its turns at
+/// `--turn-rate`, turned by hand with `--by-hand`.
+fn scheme(seed: u64, flags: &Flags) -> Scheme {
+    let mut scheme = match &flags.scheme_file {
+        Some(path) => {
+            let text = std::fs::read(path).expect("reading --scheme");
+            serde_json::from_slice::<Scheme>(&text).expect("a SPEC §4 scheme")
+        }
+        None => Scheme::builtin("ten-position-9+9", flags.dwell).unwrap(),
+    };
+    if let Some(r) = flags.turn_rate {
+        // Fast turns, as by hand: the rate reached in a tenth of a turn.
+        for step in &mut scheme.steps {
+            if let sinscal_core::sim::scheme::Step::Rotate { rotate } = step {
+                rotate.rate_dps = r;
+                rotate.accel_dps2 = r * r / 9.0;
+            }
+        }
+    }
+    if flags.by_hand {
+        scheme = Scheme::by_hand(&scheme, seed, &sinscal_core::sim::HandTurns::default()).unwrap();
+    }
+    scheme
+}
+
+/// Seed k's run.
+fn sim_config(seed: u64, flags: &Flags) -> SimConfig {
+    let (truth, start) = truth_and_start(seed, flags);
+    let noise = if flags.tactical {
+        tactical_noise(seed)
+    } else {
+        Noise::default_navigation_grade()
+    };
+    SimConfig {
+        site: Site {
+            latitude_deg: flags.latitude,
+            ..Site::REFERENCE
+        },
+        sample_rate_hz: flags.rate,
+        scheme: scheme(seed, flags),
+        params: truth,
+        effects: Effects::none(),
+        noise,
+        initial_attitude_error_deg: start,
+        seed,
+        thermal: None,
+        temperature: None,
+    }
+}
+
+/// The filter's options for a run with `noise`: the densities given with
+/// `--known-noise`, measured otherwise.
+fn estimate_options(flags: &Flags, noise: &Noise) -> EstimateOptions {
     let mut base = EstimateOptions {
         cross_check: false,
         ..EstimateOptions::default()
     };
-    if let Some(w) = value(&args, "--window") {
+    if let Some(w) = flags.window {
         base.window_s = w;
     }
-    let mut z2 = [0.0; 7];
-    let mut sig = [0.0; 7];
-    let mut worst = [0.0f64; 7];
-    let mut worst_z = [0.0f64; 7];
-    let mut count = [0usize; 7];
-    let mut beyond = Vec::new();
-    let mut worst_ratio = [0.0f64; 7];
-    let mut runs = Vec::new();
-    for seed in 1..=n {
-        let (what, raw_truth, raw_start) = raw_unit(seed);
-        let truth = if raw {
-            raw_truth
-        } else if random {
-            ErrorParameters::random(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed))
-        } else {
-            ErrorParameters::paper()
-        };
-        let start = if raw {
-            raw_start
-        } else if turned {
-            let k = seed as f64;
-            [
-                5.0 * (1.3 * k).sin(),
-                5.0 * (2.1 * k).cos(),
-                (97.0 * k) % 360.0,
-            ]
-        } else {
-            [0.1, -0.1, 2.0]
-        };
-        let noise = if tactical {
-            tactical_noise(seed)
-        } else {
-            Noise::default_navigation_grade()
-        };
-        let mut scheme = match &scheme_file {
-            Some(path) => {
-                let text = std::fs::read(path).expect("reading --scheme");
-                serde_json::from_slice::<Scheme>(&text).expect("a SPEC §4 scheme")
-            }
-            None => Scheme::builtin("ten-position-9+9", dwell).unwrap(),
-        };
-        if let Some(r) = turn_rate {
-            // Fast turns, as by hand: the rate reached in a tenth of a turn.
-            for step in &mut scheme.steps {
-                if let sinscal_core::sim::scheme::Step::Rotate { rotate } = step {
-                    rotate.rate_dps = r;
-                    rotate.accel_dps2 = r * r / 9.0;
-                }
-            }
+    EstimateOptions {
+        noise: flags.known_noise.then_some(NoiseDensity::white(
+            noise.gyro_arw_deg_rt_h,
+            noise.accel_vrw_ug_rt_hz,
+        )),
+        ..base
+    }
+}
+
+/// One seed's run and its calibration.
+struct SeedRun {
+    seed: u64,
+    cfg: SimConfig,
+    res: CalibrationResult,
+}
+
+/// Simulates and calibrates seed k.
+fn calibrate_seed(seed: u64, flags: &Flags) -> SeedRun {
+    let cfg = sim_config(seed, flags);
+    let opts = estimate_options(flags, &cfg.noise);
+    let res = calibrate_simulated(&cfg, &opts).unwrap();
+    SeedRun { seed, cfg, res }
+}
+
+/// One seed's figures: Σ(err/σ)² per family and the worst |err|/bound.
+struct SeedScore {
+    z2: [f64; FAMILIES],
+    worst_ratio: f64,
+}
+
+/// The sums and extremes over the seeds, per family where indexed.
+struct Tally {
+    z2: [f64; FAMILIES],
+    sig: [f64; FAMILIES],
+    worst: [f64; FAMILIES],
+    worst_z: [f64; FAMILIES],
+    count: [usize; FAMILIES],
+    worst_ratio: [f64; FAMILIES],
+    /// The estimates beyond a Table 1 bound, a line each.
+    beyond: Vec<String>,
+    /// With `--raw`: a line per run.
+    runs: Vec<String>,
+}
+
+impl Tally {
+    fn new() -> Self {
+        Tally {
+            z2: [0.0; FAMILIES],
+            sig: [0.0; FAMILIES],
+            worst: [0.0; FAMILIES],
+            worst_z: [0.0; FAMILIES],
+            count: [0; FAMILIES],
+            worst_ratio: [0.0; FAMILIES],
+            beyond: Vec::new(),
+            runs: Vec::new(),
         }
-        if by_hand {
-            scheme =
-                Scheme::by_hand(&scheme, seed, &sinscal_core::sim::HandTurns::default()).unwrap();
-        }
-        let cfg = SimConfig {
-            site,
-            sample_rate_hz: rate,
-            scheme,
-            params: truth,
-            effects: Effects::none(),
-            noise: noise.clone(),
-            initial_attitude_error_deg: start,
-            seed,
-            thermal: None,
-            temperature: None,
+    }
+
+    /// Scores `run` against its truth into the sums.
+    fn add(&mut self, run: &SeedRun) -> SeedScore {
+        let seed = run.seed;
+        let mut score = SeedScore {
+            z2: [0.0; FAMILIES],
+            worst_ratio: 0.0,
         };
-        let opts = EstimateOptions {
-            noise: known_noise.then_some(NoiseDensity::white(
-                noise.gyro_arw_deg_rt_h,
-                noise.accel_vrw_ug_rt_hz,
-            )),
-            ..base.clone()
-        };
-        let res = calibrate_simulated(&cfg, &opts).unwrap();
-        let mut seed_z2 = [0.0; 7];
-        let mut run_worst = 0.0f64;
         for (i, p) in PARAMETERS.iter().enumerate() {
             let g = Group::ALL.iter().position(|g| *g == p.group).unwrap();
-            let e = &res.parameters[p.name];
-            let err = e.value - truth.canonical(i);
-            seed_z2[g] += (err / e.sigma).powi(2);
-            z2[g] += (err / e.sigma).powi(2);
-            sig[g] += e.sigma;
-            worst[g] = worst[g].max(err.abs());
-            worst_z[g] = worst_z[g].max((err / e.sigma).abs());
-            worst_ratio[g] = worst_ratio[g].max(err.abs() / paper_accuracy(p.group));
-            run_worst = run_worst.max(err.abs() / paper_accuracy(p.group));
-            count[g] += 1;
+            let e = &run.res.parameters[p.name];
+            let err = e.value - run.cfg.params.canonical(i);
+            score.z2[g] += (err / e.sigma).powi(2);
+            self.z2[g] += (err / e.sigma).powi(2);
+            self.sig[g] += e.sigma;
+            self.worst[g] = self.worst[g].max(err.abs());
+            self.worst_z[g] = self.worst_z[g].max((err / e.sigma).abs());
+            self.worst_ratio[g] = self.worst_ratio[g].max(err.abs() / paper_accuracy(p.group));
+            score.worst_ratio = score.worst_ratio.max(err.abs() / paper_accuracy(p.group));
+            self.count[g] += 1;
             if err.abs() > paper_accuracy(p.group) {
-                beyond.push(format!(
+                self.beyond.push(format!(
                     "seed {seed} {} err {err:.6} ({:.2}σ)",
                     p.name,
                     err / e.sigma
                 ));
             }
         }
-        if raw {
-            runs.push(format!(
-                "seed {seed:>2} {what:<17} start {start:?}: {} dwells, {} passes, worst |err|/bound {run_worst:.2}, {} warnings",
-                res.dwell_residuals.len(),
-                res.passes,
-                res.warnings.len()
-            ));
-        }
-        if per_seed {
-            // Sum of squared err/σ per family, one line per seed.
-            println!("seed {seed} z2 {seed_z2:?}");
-        }
+        score
     }
-    for r in &runs {
-        println!("{r}");
+
+    /// Notes `run`'s line for `--raw`.
+    fn add_raw_run(&mut self, run: &SeedRun, worst_ratio: f64) {
+        let (seed, res) = (run.seed, &run.res);
+        let (what, _, _) = raw_unit(seed);
+        let start = run.cfg.initial_attitude_error_deg;
+        self.runs.push(format!(
+            "seed {seed:>2} {what:<17} start {start:?}: {} dwells, {} passes, worst |err|/bound {worst_ratio:.2}, {} warnings",
+            res.dwell_residuals.len(),
+            res.passes,
+            res.warnings.len()
+        ));
     }
-    println!(
-        "{n} seeds{}, {} noise, {}, {rate} Hz, noise {}, filter only",
-        if raw { ", uncalibrated units" } else { "" },
-        if tactical {
-            "tactical"
-        } else {
-            "navigation-grade"
-        },
-        match &scheme_file {
-            Some(f) => format!("scheme {f}"),
-            None => format!("{dwell} s dwells"),
-        },
-        if known_noise { "known" } else { "measured" }
-    );
-    println!(
-        "{:<15} {:>10} {:>8} {:>12} {:>12} {:>10}",
-        "family", "rms err/σ", "max |z|", "mean σ", "max |err|", "bound"
-    );
-    for (g, group) in Group::ALL.iter().enumerate() {
+
+    fn print(&self, flags: &Flags) {
+        for r in &self.runs {
+            println!("{r}");
+        }
         println!(
-            "{:<15} {:>10.2} {:>8.2} {:>12.6} {:>12.6} {:>10}",
-            format!("{group:?}"),
-            (z2[g] / count[g] as f64).sqrt(),
-            worst_z[g],
-            sig[g] / count[g] as f64,
-            worst[g],
-            paper_accuracy(*group)
+            "{} seeds{}, {} noise, {}, {} Hz, noise {}, filter only",
+            flags.seeds,
+            if flags.raw {
+                ", uncalibrated units"
+            } else {
+                ""
+            },
+            if flags.tactical {
+                "tactical"
+            } else {
+                "navigation-grade"
+            },
+            match &flags.scheme_file {
+                Some(f) => format!("scheme {f}"),
+                None => format!("{} s dwells", flags.dwell),
+            },
+            flags.rate,
+            if flags.known_noise {
+                "known"
+            } else {
+                "measured"
+            }
         );
-    }
-    // Table 1 is a navigation-grade promise; at tactical noise only the
-    // ratio err/σ is judged.
-    if raw {
-        let all = worst_ratio.iter().copied().fold(0.0, f64::max);
-        let per: Vec<String> = Group::ALL
-            .iter()
-            .zip(worst_ratio)
-            .map(|(g, r)| format!("{g:?} {r:.2}"))
-            .collect();
-        println!("worst |err|/bound {all:.2} ({})", per.join(", "));
-    }
-    if !tactical {
-        println!("estimates beyond a Table 1 bound: {}", beyond.len());
-        for b in beyond {
-            println!("  {b}");
+        println!(
+            "{:<15} {:>10} {:>8} {:>12} {:>12} {:>10}",
+            "family", "rms err/σ", "max |z|", "mean σ", "max |err|", "bound"
+        );
+        for (g, group) in Group::ALL.iter().enumerate() {
+            println!(
+                "{:<15} {:>10.2} {:>8.2} {:>12.6} {:>12.6} {:>10}",
+                format!("{group:?}"),
+                (self.z2[g] / self.count[g] as f64).sqrt(),
+                self.worst_z[g],
+                self.sig[g] / self.count[g] as f64,
+                self.worst[g],
+                paper_accuracy(*group)
+            );
+        }
+        // Table 1 is a navigation-grade promise; at tactical noise only the
+        // ratio err/σ is judged.
+        if flags.raw {
+            let all = self.worst_ratio.iter().copied().fold(0.0, f64::max);
+            let per: Vec<String> = Group::ALL
+                .iter()
+                .zip(self.worst_ratio)
+                .map(|(g, r)| format!("{g:?} {r:.2}"))
+                .collect();
+            println!("worst |err|/bound {all:.2} ({})", per.join(", "));
+        }
+        if !flags.tactical {
+            println!("estimates beyond a Table 1 bound: {}", self.beyond.len());
+            for b in &self.beyond {
+                println!("  {b}");
+            }
         }
     }
+}
+
+fn main() {
+    let flags = Flags::from_env();
+    let mut tally = Tally::new();
+    for seed in 1..=flags.seeds {
+        let run = calibrate_seed(seed, &flags);
+        let score = tally.add(&run);
+        if flags.raw {
+            tally.add_raw_run(&run, score.worst_ratio);
+        }
+        if flags.per_seed {
+            // Sum of squared err/σ per family, one line per seed.
+            println!("seed {seed} z2 {:?}", score.z2);
+        }
+    }
+    tally.print(&flags);
 }

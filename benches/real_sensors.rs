@@ -25,7 +25,10 @@
 //! - `--no-fit`: the measured noise model stands (no likelihood fit);
 //! - `--per-seed`: each seed's figures;
 //! - `--vs-unquantized`: each run calibrated again without its pulses
-//!   (the same draws otherwise), and the largest σ ratio reported.
+//!   (the same draws otherwise), and the largest σ ratio reported;
+//! - `--no-gyro-pulses`, `--no-vibration`: seed k's noise without its
+//!   gyro pulses or without its vibration;
+//! - `--show-model`: each seed's noise model as the calibration reports it.
 //!
 //! Always printed: per family the worst |err| against the seed paper's
 //! Table 1 accuracy, and the noise model's source.
@@ -35,22 +38,90 @@
 //! 1–3 µg/√h; vibration 30 µg rms over 2–30 Hz; pulses 1″ and 1e-4 m/s;
 //! ARW 0.0003 deg/√h, VRW 5 µg/√Hz.
 
+use std::collections::BTreeMap;
+
 use rand::{Rng, SeedableRng};
 
 use sinscal_core::calib::plan::{plan, PlanInput};
 use sinscal_core::calib::sources::calibrate_in_memory;
-use sinscal_core::calib::{EstimateOptions, NoiseDensity};
+use sinscal_core::calib::{CalibrationResult, EstimateOptions, ModelCheck, NoiseDensity};
 use sinscal_core::model::effects::LeverArms;
 use sinscal_core::model::params::paper_accuracy;
 use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal_core::nav::Site;
-use sinscal_core::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
+use sinscal_core::sim::{simulate, BiasMean, Noise, Scheme, SimConfig, Vibration};
+
+/// The number of parameter families (`Group::ALL`).
+const FAMILIES: usize = 7;
 
 fn value<T: std::str::FromStr>(args: &[String], flag: &str) -> Option<T> {
     args.iter()
         .position(|a| a == flag)
         .and_then(|i| args.get(i + 1))
         .and_then(|v| v.parse().ok())
+}
+
+/// The bench's command line, read once (see the file's doc).
+struct Flags {
+    /// Seeds 1…`seeds`: the first number among the arguments.
+    seeds: u64,
+    known_noise: bool,
+    white_model: bool,
+    pulses_only: bool,
+    white: bool,
+    no_gyro_pulses: bool,
+    no_vibration: bool,
+    /// s.
+    dwell: f64,
+    /// Hz.
+    rate: f64,
+    lever_arm: Option<f64>,
+    vs_plan: bool,
+    paper_truth: bool,
+    no_fit: bool,
+    per_seed: bool,
+    show_model: bool,
+    vs_unquantized: bool,
+}
+
+impl Flags {
+    fn from_env() -> Self {
+        let args: Vec<String> = std::env::args().collect();
+        let switch = |flag: &str| args.iter().any(|a| a == flag);
+        Flags {
+            seeds: args
+                .iter()
+                .skip(1)
+                .find_map(|a| a.parse().ok())
+                .unwrap_or(20),
+            known_noise: switch("--known-noise"),
+            white_model: switch("--white-model"),
+            pulses_only: switch("--pulses-only"),
+            white: switch("--white"),
+            no_gyro_pulses: switch("--no-gyro-pulses"),
+            no_vibration: switch("--no-vibration"),
+            dwell: value(&args, "--dwell").unwrap_or(600.0),
+            rate: value(&args, "--rate").unwrap_or(100.0),
+            lever_arm: value(&args, "--lever-arm"),
+            vs_plan: switch("--vs-plan"),
+            paper_truth: switch("--paper-truth"),
+            no_fit: switch("--no-fit"),
+            per_seed: switch("--per-seed"),
+            show_model: switch("--show-model"),
+            vs_unquantized: switch("--vs-unquantized"),
+        }
+    }
+
+    /// The filter's noise model as the summary names it.
+    fn noise_model_name(&self) -> &'static str {
+        if self.known_noise {
+            "given"
+        } else if self.white_model {
+            "white, measured"
+        } else {
+            "measured"
+        }
+    }
 }
 
 /// A value log-uniform in [lo, hi].
@@ -95,211 +166,341 @@ fn density_of(n: &Noise) -> NoiseDensity {
     }
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let n_seeds: u64 = args
+/// The index of `group` in `Group::ALL`.
+fn family(group: Group) -> usize {
+    Group::ALL
         .iter()
-        .skip(1)
-        .find_map(|a| a.parse().ok())
-        .unwrap_or(20);
-    let known = args.iter().any(|a| a == "--known-noise");
-    let white_model = args.iter().any(|a| a == "--white-model");
-    let pulses_only = args.iter().any(|a| a == "--pulses-only");
-    let white = args.iter().any(|a| a == "--white");
-    let per_seed = args.iter().any(|a| a == "--per-seed");
-    let dwell: f64 = value(&args, "--dwell").unwrap_or(600.0);
-    let rate: f64 = value(&args, "--rate").unwrap_or(100.0);
+        .position(|g| *g == group)
+        .expect("a family")
+}
 
-    let mut z2 = [0.0f64; 7];
-    let mut count = [0usize; 7];
-    let mut worst = [0.0f64; 7];
-    let mut worst_table1 = [0.0f64; 7];
-    let mut sigma_ratio = 0.0f64;
-    let mut worst_plain = [0.0f64; 7];
-    let mut plan_ratio = [f64::INFINITY, 0.0f64];
-    let mut sources = std::collections::BTreeMap::<String, usize>::new();
-    let vs_unquantized = args.iter().any(|a| a == "--vs-unquantized");
-    let paper_truth = args.iter().any(|a| a == "--paper-truth");
-    let mut inadequate = 0;
-    for seed in 1..=n_seeds {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(1);
-        let (params, heading) = if paper_truth {
-            (ErrorParameters::paper(), 123.0)
-        } else {
-            (ErrorParameters::random(&mut rng), rng.gen::<f64>() * 360.0)
-        };
-        let mut noise = real_noise(seed, pulses_only, white);
-        if args.iter().any(|a| a == "--no-gyro-pulses") {
-            noise.gyro_quantum_arcsec = 0.0;
+/// Every accelerometer `arm` off the reference point along its own axis.
+fn lever_arm_effects(arm: Option<f64>) -> Effects {
+    match arm {
+        Some(arm) => Effects {
+            accel_lever_arm: Some(LeverArms {
+                x: [arm, 0.0, 0.0],
+                y: [0.0, -arm, 0.0],
+                z: [0.0, 0.0, arm],
+            }),
+            ..Effects::none()
+        },
+        None => Effects::none(),
+    }
+}
+
+/// Seed k's run: its truth and start heading (random unless
+/// `--paper-truth`), its noise and the reference scheme.
+fn sim_config(seed: u64, flags: &Flags) -> SimConfig {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(1);
+    let (params, heading) = if flags.paper_truth {
+        (ErrorParameters::paper(), 123.0)
+    } else {
+        (ErrorParameters::random(&mut rng), rng.gen::<f64>() * 360.0)
+    };
+    let mut noise = real_noise(seed, flags.pulses_only, flags.white);
+    if flags.no_gyro_pulses {
+        noise.gyro_quantum_arcsec = 0.0;
+    }
+    if flags.no_vibration {
+        noise.vibration = None;
+    }
+    SimConfig {
+        site: Site::REFERENCE,
+        sample_rate_hz: flags.rate,
+        scheme: Scheme::builtin("ten-position-9+9", flags.dwell).expect("built-in"),
+        params,
+        effects: lever_arm_effects(flags.lever_arm),
+        noise,
+        initial_attitude_error_deg: [0.05, -0.08, heading],
+        seed,
+        thermal: None,
+        temperature: None,
+    }
+}
+
+/// The filter's options: its noise model measured, given the simulated
+/// one (`--known-noise`) or white at the simulated ARW and VRW
+/// (`--white-model`).
+fn estimate_options(flags: &Flags, noise: &Noise) -> EstimateOptions {
+    let mut opts = EstimateOptions {
+        cross_check: false,
+        ..EstimateOptions::default()
+    };
+    if flags.no_fit {
+        opts.fit_noise = false;
+    }
+    if flags.known_noise {
+        opts.noise = Some(density_of(noise));
+    } else if flags.white_model {
+        opts.noise = Some(NoiseDensity::white(
+            noise.gyro_arw_deg_rt_h,
+            noise.accel_vrw_ug_rt_hz,
+        ));
+    }
+    opts
+}
+
+/// The truth of parameter `i` that a run can see: a bias's truth plus its
+/// wander's mean over the run.
+fn truth_over_run(cfg: &SimConfig, i: usize, mean: Option<&BiasMean>) -> f64 {
+    let mut truth = cfg.params.canonical(i);
+    if let Some(m) = mean {
+        let g = Group::GyroBias.first();
+        let a = Group::AccelBias.first();
+        if (g..g + 3).contains(&i) {
+            truth += m.gyro[i - g];
+        } else if (a..a + 3).contains(&i) {
+            truth += m.accel[i - a];
         }
-        if args.iter().any(|a| a == "--no-vibration") {
-            noise.vibration = None;
-        }
-        let cfg = SimConfig {
-            site: Site::REFERENCE,
-            sample_rate_hz: rate,
-            scheme: Scheme::builtin("ten-position-9+9", dwell).expect("built-in"),
-            params,
-            effects: match value::<f64>(&args, "--lever-arm") {
-                Some(arm) => Effects {
-                    accel_lever_arm: Some(LeverArms {
-                        x: [arm, 0.0, 0.0],
-                        y: [0.0, -arm, 0.0],
-                        z: [0.0, 0.0, arm],
-                    }),
-                    ..Effects::none()
-                },
-                None => Effects::none(),
-            },
-            noise: noise.clone(),
-            initial_attitude_error_deg: [0.05, -0.08, heading],
-            seed,
-            thermal: None,
-            temperature: None,
-        };
-        let mut sim = simulate(&cfg).expect("valid");
-        for _ in sim.by_ref() {}
-        let mean = sim.bias_mean_over_run();
-        let mut opts = EstimateOptions {
-            cross_check: false,
-            ..EstimateOptions::default()
-        };
-        if args.iter().any(|a| a == "--no-fit") {
-            opts.fit_noise = false;
-        }
-        if known {
-            opts.noise = Some(density_of(&noise));
-        } else if white_model {
-            opts.noise = Some(NoiseDensity::white(
-                noise.gyro_arw_deg_rt_h,
-                noise.accel_vrw_ug_rt_hz,
-            ));
-        }
-        let res = match calibrate_in_memory(&cfg, &opts) {
-            Ok(r) => r,
-            Err(e) => {
-                println!("seed {seed}: {e}");
-                continue;
-            }
-        };
-        let source = res
-            .noise_model
-            .as_ref()
-            .map_or("none".to_string(), |n| format!("{:?}", n.source));
-        *sources.entry(source).or_default() += 1;
-        if args.iter().any(|a| a == "--show-model") {
-            println!("seed {seed}: {:?}", res.noise_model);
-        }
-        if vs_unquantized {
-            let mut plain = cfg.clone();
-            plain.noise.gyro_quantum_arcsec = 0.0;
-            plain.noise.accel_quantum_mps = 0.0;
-            if let Ok(r) = calibrate_in_memory(&plain, &opts) {
-                for (i, info) in PARAMETERS.iter().enumerate() {
-                    let ratio = res.parameters[info.name].sigma / r.parameters[info.name].sigma;
-                    sigma_ratio = sigma_ratio.max(ratio);
-                    // Without wander the truth is the parameter itself.
-                    let err = (r.parameters[info.name].value - cfg.params.canonical(i)).abs();
-                    let fam = Group::ALL.iter().position(|g| *g == info.group);
-                    let fam = fam.expect("a family");
-                    worst_plain[fam] = worst_plain[fam].max(err / paper_accuracy(info.group));
-                }
-            }
-        }
-        if args.iter().any(|a| a == "--vs-plan") {
-            let input = PlanInput {
-                scheme: cfg.scheme.clone(),
-                site: cfg.site,
-                sample_rate_hz: cfg.sample_rate_hz,
-                noise: density_of(&noise),
-                initial_attitude_error_deg: cfg.initial_attitude_error_deg,
-            };
-            let predicted = plan(&input, &EstimateOptions::default()).expect("a plan");
-            for info in PARAMETERS.iter() {
-                let r = res.parameters[info.name].sigma / predicted.parameters[info.name].sigma;
-                plan_ratio = [plan_ratio[0].min(r), plan_ratio[1].max(r)];
-            }
-        }
-        let check = res.model_check.as_ref().expect("a model check");
-        if !check.adequate {
-            inadequate += 1;
-        }
-        let mut line = format!(
-            "seed {seed:>3}: B {:.4} deg/h {:.1} µg K {:.5} deg/h/√h {:.2} µg/√h; check {} χ² {:.0}/{:.0} max|z| {:.1};",
-            noise.gyro_bias_instability_deg_h,
-            noise.accel_bias_instability_ug,
-            noise.gyro_rrw_deg_h_rt_h,
-            noise.accel_rw_ug_rt_h,
-            if check.adequate { "ok " } else { "BAD" },
-            check.statistic,
-            check.threshold,
-            check.largest_z
-        );
-        for (i, info) in PARAMETERS.iter().enumerate() {
-            let mut truth = cfg.params.canonical(i);
-            if let Some(m) = &mean {
-                let g = Group::GyroBias.first();
-                let a = Group::AccelBias.first();
-                if (g..g + 3).contains(&i) {
-                    truth += m.gyro[i - g];
-                } else if (a..a + 3).contains(&i) {
-                    truth += m.accel[i - a];
-                }
-            }
+    }
+    truth
+}
+
+/// One parameter's score in one run.
+struct Score {
+    name: &'static str,
+    family: usize,
+    /// err/σ.
+    z: f64,
+    /// |err| / the paper's Table 1 accuracy.
+    table1: f64,
+}
+
+/// Every parameter's score, in `PARAMETERS` order.
+fn scores(cfg: &SimConfig, res: &CalibrationResult, mean: Option<&BiasMean>) -> Vec<Score> {
+    PARAMETERS
+        .iter()
+        .enumerate()
+        .map(|(i, info)| {
+            let truth = truth_over_run(cfg, i, mean);
             let p = &res.parameters[info.name];
-            let z = (p.value - truth) / p.sigma;
-            let table1 = (p.value - truth).abs() / paper_accuracy(info.group);
-            let fam = Group::ALL
-                .iter()
-                .position(|g| *g == info.group)
-                .expect("a family");
-            z2[fam] += z * z;
-            count[fam] += 1;
-            worst[fam] = worst[fam].max(z.abs());
-            worst_table1[fam] = worst_table1[fam].max(table1);
-            if per_seed && z.abs() > 3.0 {
-                line.push_str(&format!(" {} {z:.1}", info.name));
+            Score {
+                name: info.name,
+                family: family(info.group),
+                z: (p.value - truth) / p.sigma,
+                table1: (p.value - truth).abs() / paper_accuracy(info.group),
             }
-        }
-        if per_seed {
-            println!("{line}");
-        }
+        })
+        .collect()
+}
+
+/// The run calibrated again without its pulses (the same draws
+/// otherwise): the largest σ with pulses / σ without, and per family the
+/// worst |err| / Table 1 without; `None` when that calibration fails.
+fn unquantized(
+    cfg: &SimConfig,
+    opts: &EstimateOptions,
+    res: &CalibrationResult,
+) -> Option<(f64, [f64; FAMILIES])> {
+    let mut plain = cfg.clone();
+    plain.noise.gyro_quantum_arcsec = 0.0;
+    plain.noise.accel_quantum_mps = 0.0;
+    let r = calibrate_in_memory(&plain, opts).ok()?;
+    let mut sigma_ratio = 0.0f64;
+    let mut worst = [0.0f64; FAMILIES];
+    for (i, info) in PARAMETERS.iter().enumerate() {
+        let ratio = res.parameters[info.name].sigma / r.parameters[info.name].sigma;
+        sigma_ratio = sigma_ratio.max(ratio);
+        // Without wander the truth is the parameter itself.
+        let err = (r.parameters[info.name].value - cfg.params.canonical(i)).abs();
+        let fam = family(info.group);
+        worst[fam] = worst[fam].max(err / paper_accuracy(info.group));
     }
-    println!(
-        "{} seeds, {} dwells of {dwell} s at {rate} Hz, noise model {}: model check inadequate on {inadequate}",
-        n_seeds,
-        19,
-        if known {
-            "given"
-        } else if white_model {
-            "white, measured"
-        } else {
-            "measured"
-        }
+    Some((sigma_ratio, worst))
+}
+
+/// The range of σ / `plan`'s σ for the run's scheme, start attitude and
+/// simulated noise model.
+fn plan_ratio(cfg: &SimConfig, res: &CalibrationResult) -> [f64; 2] {
+    let input = PlanInput {
+        scheme: cfg.scheme.clone(),
+        site: cfg.site,
+        sample_rate_hz: cfg.sample_rate_hz,
+        noise: density_of(&cfg.noise),
+        initial_attitude_error_deg: cfg.initial_attitude_error_deg,
+    };
+    let predicted = plan(&input, &EstimateOptions::default()).expect("a plan");
+    let mut range = [f64::INFINITY, 0.0f64];
+    for info in PARAMETERS.iter() {
+        let r = res.parameters[info.name].sigma / predicted.parameters[info.name].sigma;
+        range = [range[0].min(r), range[1].max(r)];
+    }
+    range
+}
+
+/// A seed's line for `--per-seed`: its noise, the model check, and every
+/// parameter beyond 3σ.
+fn seed_line(seed: u64, noise: &Noise, check: &ModelCheck, scores: &[Score]) -> String {
+    let mut line = format!(
+        "seed {seed:>3}: B {:.4} deg/h {:.1} µg K {:.5} deg/h/√h {:.2} µg/√h; check {} χ² {:.0}/{:.0} max|z| {:.1};",
+        noise.gyro_bias_instability_deg_h,
+        noise.accel_bias_instability_ug,
+        noise.gyro_rrw_deg_h_rt_h,
+        noise.accel_rw_ug_rt_h,
+        if check.adequate { "ok " } else { "BAD" },
+        check.statistic,
+        check.threshold,
+        check.largest_z
     );
-    println!("noise model sources: {sources:?}");
-    if vs_unquantized {
-        println!("largest σ with pulses / σ without: {sigma_ratio:.3}");
+    for s in scores.iter().filter(|s| s.z.abs() > 3.0) {
+        line.push_str(&format!(" {} {:.1}", s.name, s.z));
     }
-    if plan_ratio[1] > 0.0 {
-        println!(
-            "σ / plan's σ for the same noise model: {:.3}–{:.3}",
-            plan_ratio[0], plan_ratio[1]
-        );
+    line
+}
+
+/// What one seed's calibration gave.
+struct SeedOutcome {
+    /// The noise model's source, as `Debug` prints it.
+    source: String,
+    adequate: bool,
+    scores: Vec<Score>,
+    /// With `--vs-unquantized`: see [`unquantized`].
+    unquantized: Option<(f64, [f64; FAMILIES])>,
+    /// With `--vs-plan`: see [`plan_ratio`].
+    plan_ratio: Option<[f64; 2]>,
+    /// The `--per-seed` line.
+    line: String,
+}
+
+/// Simulates and calibrates seed k and scores it; `None` (the error
+/// printed) when the calibration fails.
+fn calibrate_seed(seed: u64, flags: &Flags) -> Option<SeedOutcome> {
+    let cfg = sim_config(seed, flags);
+    let mut sim = simulate(&cfg).expect("valid");
+    for _ in sim.by_ref() {}
+    let mean = sim.bias_mean_over_run();
+    let opts = estimate_options(flags, &cfg.noise);
+    let res = match calibrate_in_memory(&cfg, &opts) {
+        Ok(r) => r,
+        Err(e) => {
+            println!("seed {seed}: {e}");
+            return None;
+        }
+    };
+    let source = res
+        .noise_model
+        .as_ref()
+        .map_or("none".to_string(), |n| format!("{:?}", n.source));
+    if flags.show_model {
+        println!("seed {seed}: {:?}", res.noise_model);
     }
-    for (k, g) in Group::ALL.iter().enumerate() {
-        println!(
-            "{:<16} RMS err/σ {:5.2}   max |err/σ| {:5.2}   worst |err| / Table 1 {:4.2}{}",
-            format!("{g:?}"),
-            (z2[k] / count[k].max(1) as f64).sqrt(),
-            worst[k],
-            worst_table1[k],
-            if vs_unquantized {
-                format!(" (unquantized {:4.2})", worst_plain[k])
-            } else {
-                String::new()
+    let unquantized = flags
+        .vs_unquantized
+        .then(|| unquantized(&cfg, &opts, &res))
+        .flatten();
+    let plan_ratio = flags.vs_plan.then(|| plan_ratio(&cfg, &res));
+    let check = res.model_check.as_ref().expect("a model check");
+    let scores = scores(&cfg, &res, mean.as_ref());
+    Some(SeedOutcome {
+        source,
+        adequate: check.adequate,
+        line: seed_line(seed, &cfg.noise, check, &scores),
+        scores,
+        unquantized,
+        plan_ratio,
+    })
+}
+
+/// The sums and extremes over the seeds, per family where indexed.
+struct Tally {
+    z2: [f64; FAMILIES],
+    count: [usize; FAMILIES],
+    worst: [f64; FAMILIES],
+    worst_table1: [f64; FAMILIES],
+    sigma_ratio: f64,
+    worst_plain: [f64; FAMILIES],
+    plan_ratio: [f64; 2],
+    sources: BTreeMap<String, usize>,
+    inadequate: usize,
+}
+
+impl Tally {
+    fn new() -> Self {
+        Tally {
+            z2: [0.0; FAMILIES],
+            count: [0; FAMILIES],
+            worst: [0.0; FAMILIES],
+            worst_table1: [0.0; FAMILIES],
+            sigma_ratio: 0.0,
+            worst_plain: [0.0; FAMILIES],
+            plan_ratio: [f64::INFINITY, 0.0],
+            sources: BTreeMap::new(),
+            inadequate: 0,
+        }
+    }
+
+    fn add(&mut self, o: &SeedOutcome) {
+        *self.sources.entry(o.source.clone()).or_default() += 1;
+        if let Some((ratio, worst)) = o.unquantized {
+            self.sigma_ratio = self.sigma_ratio.max(ratio);
+            for (w, v) in self.worst_plain.iter_mut().zip(worst) {
+                *w = w.max(v);
             }
-        );
+        }
+        if let Some([lo, hi]) = o.plan_ratio {
+            self.plan_ratio = [self.plan_ratio[0].min(lo), self.plan_ratio[1].max(hi)];
+        }
+        if !o.adequate {
+            self.inadequate += 1;
+        }
+        for s in &o.scores {
+            let fam = s.family;
+            self.z2[fam] += s.z * s.z;
+            self.count[fam] += 1;
+            self.worst[fam] = self.worst[fam].max(s.z.abs());
+            self.worst_table1[fam] = self.worst_table1[fam].max(s.table1);
+        }
     }
+
+    fn print(&self, flags: &Flags) {
+        println!(
+            "{} seeds, {} dwells of {} s at {} Hz, noise model {}: model check inadequate on {}",
+            flags.seeds,
+            19,
+            flags.dwell,
+            flags.rate,
+            flags.noise_model_name(),
+            self.inadequate
+        );
+        println!("noise model sources: {:?}", self.sources);
+        if flags.vs_unquantized {
+            println!("largest σ with pulses / σ without: {:.3}", self.sigma_ratio);
+        }
+        if self.plan_ratio[1] > 0.0 {
+            println!(
+                "σ / plan's σ for the same noise model: {:.3}–{:.3}",
+                self.plan_ratio[0], self.plan_ratio[1]
+            );
+        }
+        for (k, g) in Group::ALL.iter().enumerate() {
+            println!(
+                "{:<16} RMS err/σ {:5.2}   max |err/σ| {:5.2}   worst |err| / Table 1 {:4.2}{}",
+                format!("{g:?}"),
+                (self.z2[k] / self.count[k].max(1) as f64).sqrt(),
+                self.worst[k],
+                self.worst_table1[k],
+                if flags.vs_unquantized {
+                    format!(" (unquantized {:4.2})", self.worst_plain[k])
+                } else {
+                    String::new()
+                }
+            );
+        }
+    }
+}
+
+fn main() {
+    let flags = Flags::from_env();
+    let mut tally = Tally::new();
+    for seed in 1..=flags.seeds {
+        if let Some(outcome) = calibrate_seed(seed, &flags) {
+            tally.add(&outcome);
+            if flags.per_seed {
+                println!("{}", outcome.line);
+            }
+        }
+    }
+    tally.print(&flags);
 }

@@ -172,7 +172,7 @@ async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
                     sha256: id.to_string(),
                     size_bytes: 0,
                     records: 0,
-                    format: "f64le".into(),
+                    format: DataFormat::F64le,
                     gzip: false,
                     blob_path: format!("runs/seed/{id}.bin"),
                     metadata: "{}".into(),

@@ -38,7 +38,7 @@ fn new_run(serial: &str, k: usize) -> NewRun {
             sha256: id.to_string(),
             size_bytes: 0,
             records: 0,
-            format: "f64le".into(),
+            format: DataFormat::F64le,
             gzip: false,
             blob_path: format!("runs/seed/{id}.bin"),
             metadata: "{}".into(),

@@ -125,7 +125,7 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
     let winner = app.get_result(r["run_id"].as_str().unwrap()).await;
     // A wakes up and tries to write: fenced out, on every path.
     let fake = sinscal_core::calib::CalibrationResult {
-        estimator: "stale".into(),
+        estimator: sinscal_core::calib::ResultEstimator::Lsq,
         ..Default::default()
     };
     assert!(!app

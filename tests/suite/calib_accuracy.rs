@@ -8,7 +8,9 @@ use crate::table1_support;
 
 use sinscal_core::calib::plan::{plan, PlanInput};
 use sinscal_core::calib::sources::calibrate_in_memory;
-use sinscal_core::calib::{CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity};
+use sinscal_core::calib::{
+    CalibrationResult, EstimateOptions, EstimatorKind, NoiseDensity, ResultEstimator,
+};
 use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal_core::nav::Site;
 use sinscal_core::sim::{Noise, Scheme, SimConfig};
@@ -103,7 +105,7 @@ fn least_squares_alone_meets_table1() {
         ..EstimateOptions::default()
     };
     let res = calibrate(&cfg, &opts);
-    assert_eq!(res.estimator, "lsq");
+    assert_eq!(res.estimator, ResultEstimator::Lsq);
     assert_within_table1(&res, &truth, "least squares");
     // Alone too, the result carries the model check (a filter pass at its
     // answer), and a clean run passes it.

@@ -36,7 +36,7 @@ fn calibrate(cfg: &SimConfig, model: ErrorModel) -> CalibrationResult {
 /// Each arm across the axes within `arm_mm` and 3σ, the delay within
 /// `delay_ms` and 3σ, the base parameters within Table 1.
 fn assert_strong_effects(res: &CalibrationResult, cfg: &SimConfig, arm_mm: f64, delay_ms: f64) {
-    assert_eq!(res.model, "base-24+accel_lever_arm+accel_delay");
+    assert_eq!(res.model.to_string(), "base-24+accel_lever_arm+accel_delay");
     let arms = cfg.effects.accel_lever_arm.unwrap();
     let rows = [arms.x, arms.y, arms.z];
     let axes = ["x", "y", "z"];

@@ -34,7 +34,7 @@ fn a_ramped_run_gives_its_thermal_coefficients_and_25_c_values() {
         ..EstimateOptions::default()
     };
     let r = calibrate_simulated(&cfg, &opts).unwrap();
-    assert_eq!(r.model, "base-24+thermal");
+    assert_eq!(r.model.to_string(), "base-24+thermal");
     let thermal = r.thermal.as_ref().expect("a thermal object");
     let range = thermal.range_c;
     assert!(
@@ -141,7 +141,7 @@ const CURVATURE_SEEN_UG_PER_C2: f64 = 0.05;
 #[test]
 fn without_thermal_states_the_run_proposes_them() {
     let r = calibrate_simulated(&ramp_config(1), &EstimateOptions::default()).unwrap();
-    assert_eq!(r.model, "base-24");
+    assert_eq!(r.model.to_string(), "base-24");
     assert!(r.thermal.is_none());
     assert!(
         r.warnings
@@ -159,7 +159,7 @@ fn without_thermal_states_the_run_proposes_them() {
         ..EstimateOptions::default()
     };
     let r = calibrate_simulated(&ramp_config(1), &auto).unwrap();
-    assert_eq!(r.model, "base-24+thermal");
+    assert_eq!(r.model.to_string(), "base-24+thermal");
 }
 
 /// `sinscal compensate` applies a file's thermal terms at the run's

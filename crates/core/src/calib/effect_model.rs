@@ -95,6 +95,11 @@ impl Effect {
         Effect::GyroScaleAsymmetry,
     ];
 
+    /// The model effect (one of `ALL`) named `name`.
+    pub fn from_name(name: &str) -> Option<Effect> {
+        Effect::ALL.into_iter().find(|e| e.name() == name)
+    }
+
     /// The SPEC §3 name.
     pub fn name(self) -> &'static str {
         match self {
@@ -337,9 +342,7 @@ impl FromStr for ErrorModel {
         }
         let mut effects = Vec::new();
         for part in parts {
-            let e = Effect::ALL
-                .into_iter()
-                .find(|e| e.name() == part.trim())
+            let e = Effect::from_name(part.trim())
                 .ok_or_else(|| refuse(format!("{part:?} is not a SPEC §3 effect nor thermal")))?;
             effects.push(e);
         }

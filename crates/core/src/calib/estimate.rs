@@ -300,8 +300,8 @@ fn estimate_from(
         stage: "done".into(),
     });
     let result = CalibrationResult {
-        estimator: opts.estimator.name().into(),
-        model: opts.model.to_string(),
+        estimator: opts.estimator.into(),
+        model: opts.model.clone(),
         parameters,
         effects: effect_estimates,
         warnings: findings.warnings,

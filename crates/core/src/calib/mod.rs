@@ -46,6 +46,6 @@ pub use estimate::estimate;
 pub use misfit::ModelCheck;
 pub use noise_model::{NoiseModel, TriadNoise};
 pub use options::{EstimateOptions, NoiseDensity};
-pub use result::{CalibrationResult, ParameterEstimate};
+pub use result::{CalibrationResult, ParameterEstimate, ResultEstimator};
 pub use run::{EstimatorKind, Progress, RecordSource, RunInfo};
 pub use segment::{DetectOptions, RunSegment, SegmentKind};

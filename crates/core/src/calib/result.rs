@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::effect_model::ErrorModel;
 use super::gaps::GapReport;
 use super::misfit::ModelCheck;
 use super::segment::RunSegment;
@@ -16,6 +17,39 @@ pub struct ParameterEstimate {
     /// The estimator's own 1-σ.
     pub sigma: f64,
     pub unit: String,
+}
+
+/// What produced a result's estimates, spelled in the result as SPEC §5
+/// and earlier results have it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ResultEstimator {
+    /// The systematic Kalman filter.
+    #[default]
+    #[serde(rename = "kf")]
+    Kf,
+    /// The velocity-error-rate least squares.
+    #[serde(rename = "lsq")]
+    Lsq,
+    /// A diagnosis's refit: the filter's pass, then the velocity gap's
+    /// least squares with the named effects as states.
+    #[serde(rename = "kf, then gap least squares with effect states")]
+    KfThenGapFit,
+}
+
+impl ResultEstimator {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ResultEstimator::Kf => "kf",
+            ResultEstimator::Lsq => "lsq",
+            ResultEstimator::KfThenGapFit => "kf, then gap least squares with effect states",
+        }
+    }
+}
+
+impl std::fmt::Display for ResultEstimator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.as_str())
+    }
 }
 
 /// Estimates and σ over the run (final pass), decimated for plotting.
@@ -103,12 +137,10 @@ impl RunTemperature {
 /// to trust it.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CalibrationResult {
-    /// `kf` (systematic Kalman filter) or `lsq` (velocity-error-rate least
-    /// squares).
-    pub estimator: String,
+    pub estimator: ResultEstimator,
     /// The error model: `base-24`, or `base-24+<effect>…` when effect
     /// states were added.
-    pub model: String,
+    pub model: ErrorModel,
     pub parameters: BTreeMap<String, ParameterEstimate>,
     /// Parameters of effects outside the base model, when modelled.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]

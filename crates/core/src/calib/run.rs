@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::error::CalibError;
+use super::result::ResultEstimator;
 use super::temperature::TemperatureCurve;
 use crate::nav::Site;
 use crate::record::Record;
@@ -50,6 +51,15 @@ impl EstimatorKind {
         match self {
             EstimatorKind::Kf => "kf",
             EstimatorKind::Lsq => "lsq",
+        }
+    }
+}
+
+impl From<EstimatorKind> for ResultEstimator {
+    fn from(kind: EstimatorKind) -> Self {
+        match kind {
+            EstimatorKind::Kf => ResultEstimator::Kf,
+            EstimatorKind::Lsq => ResultEstimator::Lsq,
         }
     }
 }

@@ -177,8 +177,8 @@ impl CompensationFile {
             *s = result.parameters[info.name].sigma * info.si_per_unit;
         }
         let provenance = Provenance {
-            model: result.model.clone(),
-            estimator: Some(result.estimator.clone()),
+            model: result.model.to_string(),
+            estimator: Some(result.estimator.to_string()),
             records: Some(result.records),
             model_check_adequate: result.model_check.as_ref().map(|c| c.adequate),
             effects_not_applied: result.effects.keys().cloned().collect(),

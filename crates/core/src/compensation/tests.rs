@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 
 use super::*;
-use crate::calib::{CalibrationResult, ParameterEstimate};
+use crate::calib::{CalibrationResult, Effect, ErrorModel, ParameterEstimate, ResultEstimator};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// A result whose σ are 1 % of each value plus one canonical unit.
@@ -22,8 +22,8 @@ fn result(params: &ErrorParameters) -> CalibrationResult {
         })
         .collect();
     CalibrationResult {
-        estimator: "kf".into(),
-        model: "base-24".into(),
+        estimator: ResultEstimator::Kf,
+        model: ErrorModel::base(),
         parameters,
         records: 1234,
         ..CalibrationResult::default()
@@ -169,7 +169,7 @@ fn thermal_terms_come_from_a_run_or_a_unit_model() {
         value: 0.02,
         sigma: 0.003,
     };
-    res.model = "base-24+thermal".into();
+    res.model = ErrorModel::base().and(Effect::Thermal);
     res.thermal = Some(RunThermal {
         parameters,
         gyro_bias_rate: [("z".to_string(), k)].into_iter().collect(),

@@ -13,7 +13,7 @@ use super::options::DiagnoseOptions;
 use super::reconstruct::Reconstruction;
 use super::report::{DiagnoseReport, DiagnoseStep, GapSeries};
 use super::select::{Outcome, Selection, SelectionStep};
-use crate::calib::{CalibrationResult, ParameterEstimate};
+use crate::calib::{CalibrationResult, Effect, ErrorModel, ParameterEstimate, ResultEstimator};
 use crate::model::{ErrorParameters, PARAMETERS};
 
 /// Everything the report is assembled from.
@@ -157,10 +157,10 @@ fn final_calibration(
             },
         );
     }
-    let mut model = "base-24".to_string();
+    let mut model = ErrorModel::base();
     for &c in named {
-        model.push('+');
-        model.push_str(lib.candidates[c].effect);
+        let effect = Effect::from_name(lib.candidates[c].effect);
+        model = model.and(effect.expect("a candidate's effect is a model effect (tested)"));
         for e in effect_estimates(lib, current, c) {
             calibration.effects.insert(
                 e.name,
@@ -173,7 +173,7 @@ fn final_calibration(
         }
     }
     calibration.model = model;
-    calibration.estimator = "kf, then gap least squares with effect states".into();
+    calibration.estimator = ResultEstimator::KfThenGapFit;
     calibration.cross_check = None;
     calibration.dwell_residuals.clear();
     calibration.convergence = Default::default();

@@ -291,3 +291,16 @@ pub fn separating_motion(a: &str, b: &str) -> String {
         "rotations about all three body axes in both directions and at two rates".into()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A diagnosis's result states its model from the candidates it names.
+    #[test]
+    fn every_candidate_names_a_model_effect() {
+        for c in library_with(true) {
+            assert!(Effect::from_name(c.effect).is_some(), "{}", c.effect);
+        }
+    }
+}

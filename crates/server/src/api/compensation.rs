@@ -86,7 +86,8 @@ pub(crate) async fn compensation_of(
     // A stored result is up to half a megabyte of JSON: parsed off the
     // async workers.
     let file = tokio::task::spawn_blocking(move || {
-        let result: CalibrationResult = serde_json::from_str(&json)
+        let result: CalibrationResult = json
+            .parse()
             .map_err(|e| ApiError::Internal(format!("stored result of run {id}: {e}")))?;
         CompensationFile::from_result(&result, provenance)
             .map_err(|e| ApiError::Internal(format!("stored result of run {id}: {e}")))

@@ -18,11 +18,12 @@ use super::upload::queue_full;
 use super::{parse_id, refuse_while_stopping, rfc3339, AppState};
 
 use crate::store::{
-    CalibrationRequeued, DiagnoseQueued, JobId, JobRow, Review, RunDeletion, RunId, RunRow,
+    CalibrationRequeued, DiagnoseQueued, JobId, JobRow, Review, RunDeletion, RunId, RunRow, Stored,
     StoredVerdict,
 };
 use sinscal_core::accept::Verdict;
 use sinscal_core::diagnose::DiagnoseReport;
+use sinscal_core::io::data::DataFormat;
 use sinscal_core::io::UnitSerial;
 
 #[derive(Serialize)]
@@ -33,7 +34,7 @@ pub struct RunView {
     pub sha256: String,
     pub size_bytes: i64,
     pub records: i64,
-    pub format: String,
+    pub format: DataFormat,
     pub gzip: bool,
     pub uploaded_at: String,
     pub recorded_at: Option<String>,
@@ -180,7 +181,7 @@ pub(crate) async fn result_document(st: &AppState, id: RunId) -> Result<String, 
         // Stored as serialized by the estimator's own types: served as is,
         // with the verdict (which changes with the limits) put in front.
         let verdict = run.verdict()?.map(VerdictView::from);
-        return with_verdict(json, verdict.as_ref());
+        return with_verdict(json.into_json(), verdict.as_ref());
     }
     let state = st
         .store
@@ -340,7 +341,10 @@ pub(crate) async fn queue_recalibration(st: &AppState, id: RunId) -> Result<JobR
 
 /// The latest successful diagnosis report of a run, as stored. 409 while
 /// its diagnose job has not succeeded, 404 if none was ever asked for.
-pub(crate) async fn latest_report(st: &AppState, id: RunId) -> Result<String, ApiError> {
+pub(crate) async fn latest_report(
+    st: &AppState,
+    id: RunId,
+) -> Result<Stored<DiagnoseReport>, ApiError> {
     if let Some(json) = st.store.latest_diagnosis(id).await? {
         return Ok(json);
     }
@@ -364,9 +368,13 @@ async fn get_diagnosis(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     let id: RunId = parse_id(path?.0, "run")?;
-    let json = latest_report(&st, id).await?;
+    let report = latest_report(&st, id).await?;
     // Stored as serialized by the workflow's own types: served as is.
-    Ok(([(header::CONTENT_TYPE, "application/json")], json).into_response())
+    Ok((
+        [(header::CONTENT_TYPE, "application/json")],
+        report.into_json(),
+    )
+        .into_response())
 }
 
 async fn get_diagnosis_gap_svg(
@@ -375,8 +383,9 @@ async fn get_diagnosis_gap_svg(
     path: Result<Path<String>, PathRejection>,
 ) -> Result<Response, ApiError> {
     let id: RunId = parse_id(path?.0, "run")?;
-    let json = latest_report(&st, id).await?;
-    let report: DiagnoseReport = serde_json::from_str(&json)
+    let report = latest_report(&st, id)
+        .await?
+        .parse()
         .map_err(|e| ApiError::Internal(format!("stored diagnosis: {e}")))?;
     let svg = sinscal_core::diagnose::plot::gap_svg(&report);
     Ok(([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response())

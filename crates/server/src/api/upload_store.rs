@@ -163,7 +163,7 @@ pub(super) async fn store_run(
             sha256: data.sha256.clone(),
             size_bytes: data.size as i64,
             records: records as i64,
-            format: meta.format.to_string(),
+            format: meta.format,
             gzip,
             blob_path,
             metadata: metadata.clone(),

@@ -369,7 +369,7 @@ async fn backfill_param_values(write: &AnyPool) -> Result<(), StoreError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::store::RunId;
+    use crate::store::{RunId, Stored};
     use sinscal_core::model::PARAMETERS;
 
     /// The id of the `k`th run a test writes by hand.
@@ -443,7 +443,12 @@ mod tests {
                 .unwrap();
         assert_eq!(missing, 0);
         assert_eq!(
-            store.get_result(run_id(1)).await.unwrap().as_deref(),
+            store
+                .get_result(run_id(1))
+                .await
+                .unwrap()
+                .map(Stored::into_json)
+                .as_deref(),
             Some("{}")
         );
         let serial = "OLD-1".parse().unwrap();

@@ -31,6 +31,7 @@
 
 mod db;
 mod dialect;
+mod document;
 mod error;
 mod hints;
 mod ids;
@@ -47,6 +48,7 @@ mod verdicts;
 
 pub use db::{now_ms, DatabaseUrl, Store};
 pub use dialect::{Backend, JOBS_CHANNEL};
+pub use document::Stored;
 pub use error::{is_storage_full_io, StoreError};
 pub use hints::JobHints;
 pub use ids::{JobId, RunId};

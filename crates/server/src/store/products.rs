@@ -204,6 +204,7 @@ mod tests {
     use crate::store::{JobId, NewRun, RunDeletion, RunFile, RunId, UnitFilter};
     use sinscal_core::accept::{LimitKind, ReviewReason, VerdictStatus};
     use sinscal_core::calib::ParameterEstimate;
+    use sinscal_core::io::data::DataFormat;
     use sinscal_core::model::PARAMETERS;
 
     /// Seeds a calibrated run of `serial` naming `product`, every parameter
@@ -229,7 +230,7 @@ mod tests {
                 sha256: id.to_string(),
                 size_bytes: 0,
                 records: 0,
-                format: "csv".into(),
+                format: DataFormat::Csv,
                 gzip: false,
                 blob_path: format!("runs/x/{id}.csv"),
                 metadata: "{}".into(),

@@ -366,6 +366,7 @@ impl Store {
 mod tests {
     use super::*;
     use crate::store::{InsertOutcome, NewRun, RunFile};
+    use sinscal_core::io::data::DataFormat;
 
     async fn store_with_one_job() -> (tempfile::TempDir, Store, JobId) {
         let dir = tempfile::tempdir().unwrap();
@@ -379,7 +380,7 @@ mod tests {
                 sha256: "00".into(),
                 size_bytes: 0,
                 records: 0,
-                format: "csv".into(),
+                format: DataFormat::Csv,
                 gzip: false,
                 blob_path: "runs/ru/run-1.csv".into(),
                 metadata: "{}".into(),

@@ -7,6 +7,7 @@ use std::collections::BTreeMap;
 use sqlx::FromRow;
 
 use super::db::{Store, WriteTx};
+use super::document::Stored;
 use super::error::StoreError;
 use super::ids::{JobId, RunId};
 use super::jobs::{by_state, JobCounts};
@@ -16,7 +17,8 @@ use super::spread::{self, ParamSpread, SpreadAccumulator};
 use super::verdicts::{refresh_unit, StoredVerdict};
 use sinscal_core::accept::VerdictStatus;
 use sinscal_core::calib::result::RunTemperature;
-use sinscal_core::calib::{ModelCheck, ParameterEstimate};
+use sinscal_core::calib::{CalibrationResult, ModelCheck, ParameterEstimate};
+use sinscal_core::diagnose::DiagnoseReport;
 use sinscal_core::io::UnitSerial;
 
 #[derive(Clone, Debug, FromRow)]
@@ -117,24 +119,31 @@ const UNIT_COLUMNS: &str = "u.serial, u.created_at,
          ORDER BY s.run_time DESC, s.run_id DESC LIMIT 1)";
 
 impl Store {
-    pub async fn get_result(&self, run_id: RunId) -> Result<Option<String>, StoreError> {
-        Ok(
+    pub async fn get_result(
+        &self,
+        run_id: RunId,
+    ) -> Result<Option<Stored<CalibrationResult>>, StoreError> {
+        let json: Option<String> =
             sqlx::query_scalar("SELECT result FROM result_documents WHERE run_id = $1")
                 .bind(run_id)
                 .fetch_optional(&self.read)
-                .await?,
-        )
+                .await?;
+        Ok(json.map(Stored::new))
     }
 
     /// The report of a run's most recent successful diagnosis.
-    pub async fn latest_diagnosis(&self, run_id: RunId) -> Result<Option<String>, StoreError> {
-        Ok(sqlx::query_scalar(
+    pub async fn latest_diagnosis(
+        &self,
+        run_id: RunId,
+    ) -> Result<Option<Stored<DiagnoseReport>>, StoreError> {
+        let json: Option<String> = sqlx::query_scalar(
             "SELECT report FROM diagnoses WHERE run_id = $1
              ORDER BY completed_at DESC, job_id DESC LIMIT 1",
         )
         .bind(run_id)
         .fetch_optional(&self.read)
-        .await?)
+        .await?;
+        Ok(json.map(Stored::new))
     }
 
     /// A page of units in serial order, filtered by their latest run's

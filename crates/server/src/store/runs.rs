@@ -11,6 +11,7 @@ use super::ids::{JobId, RunId};
 use super::jobs::count_queued;
 use super::kinds::{Flag, JobState, OptionalFlag};
 use super::verdicts::{refresh_unit, refresh_unit_row, StoredVerdict};
+use sinscal_core::io::data::DataFormat;
 use sinscal_core::io::UnitSerial;
 
 /// A run's row with its calibration job and its result's columns (`r` the
@@ -27,7 +28,8 @@ pub struct RunFile {
     pub sha256: String,
     pub size_bytes: i64,
     pub records: i64,
-    pub format: String,
+    #[sqlx(try_from = "String")]
+    pub format: DataFormat,
     #[sqlx(try_from = "Flag")]
     pub gzip: bool,
     pub blob_path: String,
@@ -308,7 +310,7 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     .bind(&new.file.sha256)
     .bind(new.file.size_bytes)
     .bind(new.file.records)
-    .bind(&new.file.format)
+    .bind(new.file.format.as_str())
     .bind(new.file.gzip)
     .bind(&new.file.blob_path)
     .bind(&new.file.metadata)

@@ -23,8 +23,8 @@ pub async fn page(
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = readable_run(&st, &session, id).await?;
-    let json = crate::api::runs::latest_report(&st, run.id).await?;
-    let report: DiagnoseReport = tokio::task::spawn_blocking(move || serde_json::from_str(&json))
+    let stored = crate::api::runs::latest_report(&st, run.id).await?;
+    let report: DiagnoseReport = tokio::task::spawn_blocking(move || stored.parse())
         .await
         .map_err(|e| ApiError::Internal(format!("report task: {e}")))?
         .map_err(|e| ApiError::Internal(format!("stored diagnosis of run {}: {e}", run.id)))?;

@@ -50,7 +50,7 @@ pub(super) async fn parsed_result(
         return Ok(None);
     };
     tokio::task::spawn_blocking(move || {
-        serde_json::from_str(&json).map(Some).map_err(|e| {
+        json.parse().map(Some).map_err(|e| {
             PageError::from(crate::api::error::ApiError::Internal(format!(
                 "stored result of run {id}: {e}"
             )))

@@ -53,6 +53,15 @@ impl FromStr for DataFormat {
     }
 }
 
+/// How a stored run's format column reads back.
+impl TryFrom<String> for DataFormat {
+    type Error = UnknownFormat;
+
+    fn try_from(name: String) -> Result<Self, UnknownFormat> {
+        name.parse()
+    }
+}
+
 /// Bounds on what a reader will take in, so that a hostile or broken upload
 /// is refused with an error instead of exhausting memory.
 ///
