@@ -19,6 +19,7 @@ pub mod calib;
 pub mod compensation;
 pub mod design;
 pub mod diagnose;
+pub mod estimation;
 pub mod io;
 pub mod model;
 pub mod nav;

@@ -22,7 +22,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::sensitivity::{base_columns, Rows};
+use crate::estimation::sensitivity::{base_columns, Rows};
 use crate::nav::attitude::skew;
 
 /// One effect parameter as an error state, in SI.

@@ -1,5 +1,7 @@
 //! What can stop a calibration.
 
+use crate::estimation::EstimationError;
+
 /// Errors of a calibration.
 #[derive(Debug, thiserror::Error)]
 pub enum CalibError {
@@ -17,4 +19,15 @@ pub enum CalibError {
     /// The options ask for what the estimator does not do.
     #[error("options: {0}")]
     Options(String),
+}
+
+impl From<EstimationError> for CalibError {
+    fn from(e: EstimationError) -> Self {
+        match e {
+            EstimationError::NotPositiveDefinite(what) => {
+                CalibError::Numerical(format!("{what} is not positive definite"))
+            }
+            EstimationError::CannotAlign(why) => CalibError::Unusable(why.to_string()),
+        }
+    }
 }

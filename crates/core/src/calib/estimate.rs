@@ -13,7 +13,6 @@ use super::error::CalibError;
 use super::kf_pass::{effect_terms, filter_pass, kf_pass, Pass};
 use super::noise_fit::{fit_noise, FreeTerm, NoiseFit};
 use super::noise_measure::measure_noise;
-use super::noise_model::NoiseModel;
 use super::options::EstimateOptions;
 use super::passes::{lsq_as_pass, run_passes, Estimate};
 use super::prescan::{first_dwell, scan_run};
@@ -26,6 +25,7 @@ use super::result::{
 use super::run::{EstimatorKind, Progress, RecordSource, RunInfo};
 use super::temperature::{TemperatureCurve, THERMAL_SPAN_C};
 use super::walk::PassContext;
+use crate::estimation::noise_model::NoiseModel;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 use crate::nav::attitude::euler_from_dcm;

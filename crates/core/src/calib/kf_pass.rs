@@ -8,13 +8,13 @@ use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 use super::effect_model::ErrorModel;
 use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
-use super::filter::Innovation;
 use super::model_check::{CheckAccumulator, ModelCheck};
 use super::prescan::dwell_at;
 use super::replay::PassTrace;
 use super::result::{Convergence, DwellResidual};
 use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
+use crate::estimation::filter::Innovation;
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// Sums over one dwell's zero-velocity innovations, from which the

@@ -28,12 +28,12 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
-use super::filter::{error_dynamics, NAV};
 use super::kf_pass::effect_terms;
 use super::nodes::{walk_nodes, Stretch};
-use super::normal::NormalEquations;
-use super::priors::{prior_sigma, start_attitude_information, white_noise_density};
 use super::walk::{align_start, PassContext};
+use crate::estimation::filter::{error_dynamics, NAV};
+use crate::estimation::normal::NormalEquations;
+use crate::estimation::priors::{prior_sigma, start_attitude_information, white_noise_density};
 use crate::model::{ErrorParameters, N_PARAMS};
 
 /// A node: the open-loop velocity there and what led to it.

@@ -1,50 +1,42 @@
 //! Calibration: finding the 24 parameters (and any effect states) from a
-//! run. Alignment, the systematic Kalman filter, the least-squares
-//! cross-check and covariance planning. No I/O happens here: records come
+//! run: walking it through the estimation toolkit's filter (`estimation`),
+//! the least-squares cross-check, the noise fit, the model check and
+//! covariance planning. No I/O happens here: records come
 //! through [`RecordSource`], which the caller implements.
 
-pub(crate) mod align;
 pub(crate) mod check_statistics;
 pub(crate) mod effect_model;
 pub(crate) mod effect_sensitivity;
 pub(crate) mod error;
-pub(crate) mod error_dynamics;
 pub(crate) mod estimate;
-pub(crate) mod filter;
 pub(crate) mod gaps;
 pub(crate) mod kf_pass;
 pub(crate) mod lsq;
 pub(crate) mod misfit;
 pub mod model_check;
-pub(crate) mod nav_errors;
 pub(crate) mod nodes;
 pub(crate) mod noise_fit;
 pub(crate) mod noise_measure;
-pub(crate) mod noise_model;
-pub(crate) mod normal;
 pub(crate) mod options;
 pub(crate) mod passes;
 pub mod plan;
 pub mod prescan;
-pub(crate) mod priors;
 pub(crate) mod replay;
 mod report;
 pub mod result;
 pub(crate) mod run;
 pub mod segment;
-pub(crate) mod sensitivity;
 pub mod sources;
 pub(crate) mod temperature;
 pub mod thermal_states;
 pub(crate) mod timed;
 pub(crate) mod walk;
-pub(crate) mod wander;
 
+pub use crate::estimation::{NoiseModel, TriadNoise};
 pub use effect_model::{Effect, ErrorModel};
 pub use error::CalibError;
 pub use estimate::estimate;
 pub use misfit::ModelCheck;
-pub use noise_model::{NoiseModel, TriadNoise};
 pub use options::{EstimateOptions, NoiseDensity};
 pub use result::{CalibrationResult, ParameterEstimate, ResultEstimator};
 pub use run::{EstimatorKind, Progress, RecordSource, RunInfo};

@@ -33,9 +33,9 @@ use nalgebra::{Cholesky, DMatrix, DVector, Matrix3, Vector3};
 
 use super::check_statistics::judge;
 use super::error::CalibError;
-use super::filter::Innovation;
 use super::result::DwellResidual;
 use super::segment::{RunSegment, SegmentKind};
+use crate::estimation::filter::Innovation;
 
 pub use super::check_statistics::quantile;
 use super::misfit::NAV_AXES;

@@ -8,10 +8,10 @@ use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
 use super::effect_sensitivity::EffectTerms;
 use super::error::CalibError;
-use super::filter::{process_noise, transition};
 use super::prescan::dwell_at;
 use super::segment::RunSegment;
 use super::walk::{walk, PassContext, WindowEnd};
+use crate::estimation::filter::{process_noise, transition};
 use crate::model::Compensator;
 
 /// Stretches each dwell is cut into.

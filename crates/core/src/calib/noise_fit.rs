@@ -31,9 +31,9 @@
 //! is half χ²₀ and half χ²₁).
 
 use super::error::CalibError;
-use super::noise_model::{NoiseModel, TriadNoise};
 use super::replay::PassTrace;
 use super::walk::PassContext;
+use crate::estimation::noise_model::{NoiseModel, TriadNoise};
 
 /// The terms the fit adjusts, as factors on the start model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

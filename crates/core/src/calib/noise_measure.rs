@@ -12,9 +12,9 @@
 use std::sync::atomic::AtomicBool;
 
 use super::error::CalibError;
-use super::noise_model::{NoiseModel, TriadNoise};
 use super::prescan::Prescan;
 use super::run::{RecordSource, RunInfo};
+use crate::estimation::noise_model::{NoiseModel, TriadNoise};
 use crate::model::units::{ARCSEC, DEG_PER_H, HOUR, UG};
 use crate::noise::{
     analyse, NoiseError, NoiseOptions, NoiseReport, Span, Stretches, Term, TermStatus,

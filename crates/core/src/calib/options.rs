@@ -7,46 +7,7 @@ use super::effect_model::ErrorModel;
 use super::run::EstimatorKind;
 use super::segment::DetectOptions;
 
-/// A sensor noise model in canonical units, one value per triad: SPEC §2's
-/// white noise and §2a's real-sensor terms (the truth file's `noise` names;
-/// an absent term is zero).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct NoiseDensity {
-    pub gyro_arw_deg_rt_h: f64,
-    pub accel_vrw_ug_rt_hz: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub gyro_bias_instability_deg_h: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub accel_bias_instability_ug: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub gyro_rrw_deg_h_rt_h: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub accel_rw_ug_rt_h: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub gyro_quantum_arcsec: f64,
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub accel_quantum_mps: f64,
-}
-
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
-}
-
-impl NoiseDensity {
-    /// White noise only (SPEC §2): ARW in deg/√h, VRW in µg/√Hz.
-    pub const fn white(gyro_arw_deg_rt_h: f64, accel_vrw_ug_rt_hz: f64) -> Self {
-        NoiseDensity {
-            gyro_arw_deg_rt_h,
-            accel_vrw_ug_rt_hz,
-            gyro_bias_instability_deg_h: 0.0,
-            accel_bias_instability_ug: 0.0,
-            gyro_rrw_deg_h_rt_h: 0.0,
-            accel_rw_ug_rt_h: 0.0,
-            gyro_quantum_arcsec: 0.0,
-            accel_quantum_mps: 0.0,
-        }
-    }
-}
+pub use crate::estimation::NoiseDensity;
 
 /// Tunable parts of the estimator. The defaults are what the accuracy
 /// tests and benchmarks use.

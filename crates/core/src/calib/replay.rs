@@ -17,7 +17,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
 
 use super::error::CalibError;
-use super::filter::{SystematicFilter, NAV};
+use crate::estimation::filter::{SystematicFilter, NAV};
 
 /// One window as the filter saw it.
 struct WindowTrace {
@@ -102,7 +102,7 @@ impl PassTrace {
                 kf.update_zero_velocity(v, &w.c_b_n)?;
             }
         }
-        kf.log_likelihood()
+        Ok(kf.log_likelihood()?)
     }
 
     /// The traced pass's own log-likelihood.
@@ -150,7 +150,7 @@ impl PassTrace {
                 kf.update_zero_velocity(&v, &last.c_b_n)?;
             }
         }
-        kf.log_likelihood()
+        Ok(kf.log_likelihood()?)
     }
 }
 

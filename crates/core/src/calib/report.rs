@@ -10,12 +10,12 @@ use super::effect_sensitivity::EffectParameter;
 use super::error::CalibError;
 use super::kf_pass::Pass;
 use super::options::EstimateOptions;
-use super::priors::prior_sigma;
 use super::result::{CrossCheck, ParameterEstimate};
 use super::temperature::THERMAL_SPAN_C;
 use super::thermal_states::RunThermal;
 use super::thermal_states::{is_thermal, run_thermal};
 use super::walk::PassContext;
+use crate::estimation::priors::prior_sigma;
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// A parameter is reported poorly observable when its σ after the run is

@@ -9,6 +9,8 @@ use super::gaps::GapReport;
 use super::misfit::ModelCheck;
 use super::segment::RunSegment;
 use super::thermal_states::RunThermal;
+use crate::estimation::NoiseModel;
+use crate::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
 
 /// One estimated parameter in its canonical unit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -303,5 +305,25 @@ impl CalibrationResult {
 
     pub fn sigma(&self, name: &str) -> Option<f64> {
         self.parameters.get(name).map(|p| p.sigma)
+    }
+}
+
+/// The result's account of the noise model (the toolkit's type knows no
+/// result).
+impl NoiseModel {
+    /// The model in canonical units, per axis, for the result.
+    pub fn report(&self) -> NoiseModelReport {
+        let rt_h = HOUR.sqrt();
+        let per = |v: [f64; 3], unit: f64| v.map(|x| x / unit);
+        NoiseModelReport {
+            gyro_arw_deg_rt_h: per(self.gyro.white, DEG_PER_RT_H),
+            gyro_quantum_arcsec: per(self.gyro.quantum, ARCSEC),
+            gyro_bias_instability_deg_h: per(self.gyro.instability, DEG_PER_H),
+            gyro_rrw_deg_h_rt_h: per(self.gyro.random_walk, DEG_PER_H / rt_h),
+            accel_vrw_ug_rt_hz: per(self.accel.white, UG_PER_RT_HZ),
+            accel_quantum_mps: self.accel.quantum,
+            accel_bias_instability_ug: per(self.accel.instability, UG),
+            accel_rw_ug_rt_h: per(self.accel.random_walk, UG / rt_h),
+        }
     }
 }

@@ -9,21 +9,21 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::align;
 use super::effect_sensitivity::{
     effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
 };
 use super::error::CalibError;
-use super::filter::{error_dynamics, SystematicFilter};
-use super::noise_model::NoiseModel;
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
-use super::priors::{initial_navigation_covariance, prior_sigma};
 use super::run::{RecordSource, RunInfo};
-use super::sensitivity::base_columns;
-use super::sensitivity::Rows;
 use super::temperature::TemperatureCurve;
 use super::timed::{timed_records, Timed, TimedRecords};
+use crate::estimation::align;
+use crate::estimation::filter::{error_dynamics, SystematicFilter};
+use crate::estimation::noise_model::NoiseModel;
+use crate::estimation::priors::{initial_navigation_covariance, prior_sigma};
+use crate::estimation::sensitivity::base_columns;
+use crate::estimation::sensitivity::Rows;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
 use crate::model::{Compensator, N_PARAMS};
 use crate::nav::attitude::skew;
@@ -192,7 +192,7 @@ pub(crate) fn align_start(
         .map_while(|r| r.ok())
         .take_while(|r| r.record.t <= t_align_end + 1e-9)
         .map(|r| (comp.record(&r.record, r.dt), r.dt));
-    align::fine(
+    Ok(align::fine(
         &ctx.run.site,
         &c_coarse,
         align_records,
@@ -203,7 +203,7 @@ pub(crate) fn align_start(
             arw: ctx.arw,
             vrw: ctx.vrw,
         },
-    )
+    )?)
 }
 
 /// Takes effects of known size out of a compensated record: each one's

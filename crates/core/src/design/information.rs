@@ -40,11 +40,11 @@
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
 use crate::calib::effect_sensitivity::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
-use crate::calib::filter::{error_dynamics, SystematicFilter};
-use crate::calib::noise_model::NoiseModel;
-use crate::calib::priors::{initial_navigation_covariance, prior_sigma};
-use crate::calib::sensitivity::base_columns;
 use crate::calib::CalibError;
+use crate::estimation::filter::{error_dynamics, SystematicFilter};
+use crate::estimation::noise_model::NoiseModel;
+use crate::estimation::priors::{initial_navigation_covariance, prior_sigma};
+use crate::estimation::sensitivity::base_columns;
 use crate::model::{N_PARAMS, PARAMETERS};
 use crate::nav::attitude::rotvec_to_dcm;
 use crate::nav::Site;

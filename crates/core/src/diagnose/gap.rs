@@ -28,12 +28,12 @@ use super::candidates::Candidate;
 use super::error::DiagnoseError;
 use super::gap_wander::WanderPrior;
 use crate::calib::effect_sensitivity::{EffectParameter, EffectTerms};
-use crate::calib::filter::{error_dynamics, transition, NAV};
 use crate::calib::nodes::{walk_nodes, Stretch};
-use crate::calib::normal::NormalEquations;
-use crate::calib::priors::{prior_sigma, start_attitude_information, white_noise_density};
 use crate::calib::walk::PassContext;
 use crate::calib::CalibError;
+use crate::estimation::filter::{error_dynamics, transition, NAV};
+use crate::estimation::normal::NormalEquations;
+use crate::estimation::priors::{prior_sigma, start_attitude_information, white_noise_density};
 use crate::model::{bias_parameter, ErrorParameters, N_PARAMS};
 
 /// Prior σ of a scaled effect parameter: a hundred signature sizes, so

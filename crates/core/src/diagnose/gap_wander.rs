@@ -16,8 +16,8 @@
 
 use nalgebra::DMatrix;
 
-use crate::calib::wander::{wander_components, WanderComponent};
 use crate::calib::NoiseModel;
+use crate::estimation::wander::{wander_components, WanderComponent};
 
 /// Relative variance added to every stretch mean: the slow components'
 /// means over neighbouring stretches are nearly equal, and a floor this

@@ -5,7 +5,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::error::CalibError;
+use super::error::EstimationError;
 use super::filter::{error_dynamics, SystematicFilter};
 use super::noise_model::NoiseModel;
 use crate::nav::{Site, Strapdown};
@@ -13,15 +13,16 @@ use crate::record::Record;
 
 /// C_b^n from the mean specific force f^b and angular rate ω^b at rest:
 /// up is along f, east along ω × f, north completes the frame (ENU).
-pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>, CalibError> {
-    let up = f_b.try_normalize(1e-9).ok_or_else(|| {
-        CalibError::Unusable("no specific force in the first dwell: cannot level".into())
-    })?;
-    let east = omega_b.cross(&up).try_normalize(1e-15).ok_or_else(|| {
-        CalibError::Unusable(
-            "no horizontal Earth rate in the first dwell: cannot find north".into(),
-        )
-    })?;
+pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>, EstimationError> {
+    let up = f_b.try_normalize(1e-9).ok_or(EstimationError::CannotAlign(
+        "no specific force in the first dwell: cannot level",
+    ))?;
+    let east = omega_b
+        .cross(&up)
+        .try_normalize(1e-15)
+        .ok_or(EstimationError::CannotAlign(
+            "no horizontal Earth rate in the first dwell: cannot find north",
+        ))?;
     let north = up.cross(&east);
     // Rows of C_b^n are the navigation axes in body coordinates.
     Ok(Matrix3::from_rows(&[
@@ -55,7 +56,7 @@ pub fn fine(
     c_b_n: &Matrix3<f64>,
     records: impl Iterator<Item = (Record, f64)>,
     how: &FineAlignment,
-) -> Result<Matrix3<f64>, CalibError> {
+) -> Result<Matrix3<f64>, EstimationError> {
     let FineAlignment {
         t0,
         nominal_dt,

@@ -8,10 +8,51 @@
 //! states (`wander`). The model is either given (`EstimateOptions::noise`)
 //! or measured from the run.
 
-use super::options::NoiseDensity;
-use super::result::NoiseModelReport;
-use crate::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
+
+/// A sensor noise model in canonical units, one value per triad: SPEC §2's
+/// white noise and §2a's real-sensor terms (the truth file's `noise` names;
+/// an absent term is zero).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct NoiseDensity {
+    pub gyro_arw_deg_rt_h: f64,
+    pub accel_vrw_ug_rt_hz: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_bias_instability_deg_h: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_bias_instability_ug: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_rrw_deg_h_rt_h: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_rw_ug_rt_h: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub gyro_quantum_arcsec: f64,
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub accel_quantum_mps: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+impl NoiseDensity {
+    /// White noise only (SPEC §2): ARW in deg/√h, VRW in µg/√Hz.
+    pub const fn white(gyro_arw_deg_rt_h: f64, accel_vrw_ug_rt_hz: f64) -> Self {
+        NoiseDensity {
+            gyro_arw_deg_rt_h,
+            accel_vrw_ug_rt_hz,
+            gyro_bias_instability_deg_h: 0.0,
+            accel_bias_instability_ug: 0.0,
+            gyro_rrw_deg_h_rt_h: 0.0,
+            accel_rw_ug_rt_h: 0.0,
+            gyro_quantum_arcsec: 0.0,
+            accel_quantum_mps: 0.0,
+        }
+    }
+}
 
 /// One triad's noise, SI, per body axis.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -137,22 +178,6 @@ impl NoiseModel {
     /// White noise only: section 2's sensor, without any §2a term.
     pub fn is_white(&self) -> bool {
         !self.wanders() && !self.pulses()
-    }
-
-    /// The model in canonical units, per axis, for the result.
-    pub fn report(&self) -> NoiseModelReport {
-        let rt_h = HOUR.sqrt();
-        let per = |v: [f64; 3], unit: f64| v.map(|x| x / unit);
-        NoiseModelReport {
-            gyro_arw_deg_rt_h: per(self.gyro.white, DEG_PER_RT_H),
-            gyro_quantum_arcsec: per(self.gyro.quantum, ARCSEC),
-            gyro_bias_instability_deg_h: per(self.gyro.instability, DEG_PER_H),
-            gyro_rrw_deg_h_rt_h: per(self.gyro.random_walk, DEG_PER_H / rt_h),
-            accel_vrw_ug_rt_hz: per(self.accel.white, UG_PER_RT_HZ),
-            accel_quantum_mps: self.accel.quantum,
-            accel_bias_instability_ug: per(self.accel.instability, UG),
-            accel_rw_ug_rt_h: per(self.accel.random_walk, UG / rt_h),
-        }
     }
 
     /// Every white density raised to at least the floors given (a

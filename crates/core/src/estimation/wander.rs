@@ -228,7 +228,7 @@ fn fit_to_floor(decay: &[f64], taus: &[f64]) -> Vec<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::noise_model::TriadNoise;
+    use crate::estimation::noise_model::TriadNoise;
 
     #[test]
     fn markov_allan_variance_has_its_limits() {

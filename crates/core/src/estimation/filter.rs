@@ -35,7 +35,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
-use super::error::CalibError;
+use super::error::EstimationError;
 use super::error_dynamics::WindowCache;
 pub use super::error_dynamics::{error_dynamics, process_noise, transition};
 pub use super::nav_errors::NAV;
@@ -275,7 +275,7 @@ impl SystematicFilter {
     /// −½ [Σ ln det S_k + Σ ȳ_kᵀ S_k⁻¹ ȳ_k − hᵀ J⁻¹ h + ln det J], constant
     /// dropped. The two-stage innovations ȳ_k − M_k p are independent
     /// N(0, S_k) given p, which makes this the marginal likelihood.
-    pub fn log_likelihood(&self) -> Result<f64, CalibError> {
+    pub fn log_likelihood(&self) -> Result<f64, EstimationError> {
         if self.parameters_known {
             return Ok(-0.5 * self.innovation_terms);
         }
@@ -311,7 +311,7 @@ impl SystematicFilter {
         &mut self,
         v_n: &Vector3<f64>,
         c_b_n: &Matrix3<f64>,
-    ) -> Result<Innovation, CalibError> {
+    ) -> Result<Innovation, EstimationError> {
         let r =
             Matrix3::identity() * self.zupt_var + self.noise.accel.quantization_covariance_n(c_b_n);
         let nav = &mut self.nav;
@@ -319,11 +319,9 @@ impl SystematicFilter {
         let y_bar = v_n - Vector3::new(nav.x[3], nav.x[4], nav.x[5]);
         let p_xv = nav.p.columns(3, 3).into_owned(); // n × 3
         let s = Matrix3::from_fn(|i, j| p_xv[(3 + i, j)]) + r;
-        let chol = s.cholesky().ok_or_else(|| {
-            CalibError::Numerical(
-                "navigation innovation covariance is not positive definite".into(),
-            )
-        })?;
+        let chol = s.cholesky().ok_or(EstimationError::NotPositiveDefinite(
+            "navigation innovation covariance",
+        ))?;
         let s_inv = DMatrix::from_column_slice(3, 3, chol.inverse().as_slice());
         let s_d = DMatrix::from_column_slice(3, 3, s.as_slice());
         let k = &p_xv * &s_inv; // n × 3
@@ -348,10 +346,15 @@ impl SystematicFilter {
         Ok(Innovation { y_bar, m, s })
     }
 
-    fn information_cholesky(&self) -> Result<nalgebra::Cholesky<f64, nalgebra::Dyn>, CalibError> {
-        self.j.clone().cholesky().ok_or_else(|| {
-            CalibError::Numerical("parameter information is not positive definite".into())
-        })
+    fn information_cholesky(
+        &self,
+    ) -> Result<nalgebra::Cholesky<f64, nalgebra::Dyn>, EstimationError> {
+        self.j
+            .clone()
+            .cholesky()
+            .ok_or(EstimationError::NotPositiveDefinite(
+                "parameter information",
+            ))
     }
 
     /// Takes the bias-free navigation-error estimate x̄ out of the state
@@ -391,14 +394,14 @@ impl SystematicFilter {
 
     /// The scaled parameter estimate J⁻¹ h: the constant part of each
     /// parameter (the one the innovations' sensitivity M refers to).
-    pub fn scaled_estimate(&self) -> Result<DVector<f64>, CalibError> {
+    pub fn scaled_estimate(&self) -> Result<DVector<f64>, EstimationError> {
         Ok(self.information_cholesky()?.solve(&self.h))
     }
 
     /// Parameter estimates (SI) and their 1-σ (SI) over the `elapsed_s`
     /// seconds walked: a wandering bias as its mean over that time (SPEC
     /// §2a; the whole run at the end).
-    pub fn parameters(&self, elapsed_s: f64) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
+    pub fn parameters(&self, elapsed_s: f64) -> Result<(Vec<f64>, Vec<f64>), EstimationError> {
         let (p, cov) = self.run_mean(elapsed_s, self.n_p)?;
         Ok((0..self.n_p)
             .map(|i| {
@@ -417,7 +420,7 @@ impl SystematicFilter {
         &self,
         n: usize,
         elapsed_s: f64,
-    ) -> Result<Vec<f64>, CalibError> {
+    ) -> Result<Vec<f64>, EstimationError> {
         let (_, cov) = self.run_mean(elapsed_s, n)?;
         Ok((0..n)
             .map(|i| cov[(i, i)].max(0.0).sqrt() * self.scale[i])
@@ -426,7 +429,7 @@ impl SystematicFilter {
 
     /// Parameter covariance (SI), wandering biases as their mean over
     /// `elapsed_s`.
-    pub fn parameter_covariance_si(&self, elapsed_s: f64) -> Result<DMatrix<f64>, CalibError> {
+    pub fn parameter_covariance_si(&self, elapsed_s: f64) -> Result<DMatrix<f64>, EstimationError> {
         let (_, mut cov) = self.run_mean(elapsed_s, self.n_p)?;
         for i in 0..self.n_p {
             for k in 0..self.n_p {
@@ -445,11 +448,11 @@ impl SystematicFilter {
         &self,
         elapsed_s: f64,
         n: usize,
-    ) -> Result<(DVector<f64>, DMatrix<f64>), CalibError> {
+    ) -> Result<(DVector<f64>, DMatrix<f64>), EstimationError> {
         let j = self.j.view((0, 0), (n, n)).into_owned();
-        let chol = j.cholesky().ok_or_else(|| {
-            CalibError::Numerical("parameter information is not positive definite".into())
-        })?;
+        let chol = j.cholesky().ok_or(EstimationError::NotPositiveDefinite(
+            "parameter information",
+        ))?;
         let mut p = chol.solve(&self.h.rows(0, n));
         let mut cov = chol.inverse();
         let first = [Group::GyroBias.first(), Group::AccelBias.first()];

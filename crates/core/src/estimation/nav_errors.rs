@@ -194,7 +194,7 @@ impl NavErrors {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::wander::WanderKind;
+    use crate::estimation::wander::WanderKind;
 
     fn window<'a>(
         phi: &'a Matrix6<f64>,
