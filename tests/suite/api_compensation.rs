@@ -42,6 +42,9 @@ async fn a_calibrated_run_serves_its_compensation_as_json_and_csv() {
     assert_eq!(file.provenance.unit_serial.as_deref(), Some("RLG-C1"));
     assert_eq!(file.provenance.run_id.as_deref(), Some(run_id.as_str()));
     assert_eq!(file.provenance.model, result["model"].as_str().unwrap());
+    // Judged without a product: accepted, and the file says so.
+    assert_eq!(file.provenance.verdict.as_deref(), Some("accepted"));
+    assert!(file.provenance.verdict_override.is_none());
     let (values, sigma) = (file.parameters(), file.sigma().unwrap());
     for (i, info) in PARAMETERS.iter().enumerate() {
         let p = &result["parameters"][info.name];
@@ -92,5 +95,68 @@ async fn compensation_needs_an_engineer_and_a_known_run() {
     let engineer = app.create_token("engineer").await;
     let (status, _) = problem(app.get(&engineer, &unknown).await).await;
     assert_eq!(status, StatusCode::NOT_FOUND);
+    app.stop().await;
+}
+
+/// The compensation file of a run the acceptance did not accept (here: it
+/// names a product with no product type, so it needs review) is held back
+/// with 409 until an engineer gives a reason; the file then records the
+/// verdict, the reason and who gave it. An accepted run's file records
+/// its verdict and needs none.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_that_is_not_accepted_releases_its_compensation_only_on_a_reason() {
+    let app = spawn_app(0).await;
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = short_run(dir.path(), 12, DataFormat::F64le, "RLG-C2");
+    let mut meta: Value = serde_json::from_slice(&run.metadata).unwrap();
+    meta["product"] = Value::String("NO-SUCH-TYPE".into());
+    run.metadata = serde_json::to_vec(&meta).unwrap();
+    let r = app.upload_run("RLG-C2", &run).await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let run_id = r.json::<Value>().await.unwrap()["run_id"]
+        .as_str()
+        .unwrap()
+        .to_string();
+    app.runner.try_run_next_job(0).await.unwrap();
+    let path = format!("/runs/{run_id}/compensation");
+
+    let (status, body) = problem(app.get(&app.admin, &path).await).await;
+    assert_eq!(status, StatusCode::CONFLICT, "{body}");
+    let detail = body["detail"].as_str().unwrap();
+    assert!(
+        detail.contains("needs review") && detail.contains("override="),
+        "{detail}"
+    );
+    for bad in ["", "%20%20", "line%0Abreak", &"x".repeat(301)] {
+        let r = app.get(&app.admin, &format!("{path}?override={bad}")).await;
+        assert_eq!(
+            problem(r).await.0,
+            StatusCode::BAD_REQUEST,
+            "override={bad:?}"
+        );
+    }
+
+    let engineer = app.create_token("engineer").await;
+    let reason = "line%20trial%20unit%2C%20not%20for%20delivery";
+    let r = app
+        .get(&engineer, &format!("{path}?override={reason}"))
+        .await;
+    assert_eq!(r.status(), StatusCode::OK);
+    let file = CompensationFile::from_json(&r.bytes().await.unwrap()).unwrap();
+    assert_eq!(file.provenance.verdict.as_deref(), Some("needs_review"));
+    let o = file
+        .provenance
+        .verdict_override
+        .expect("the override is recorded");
+    assert_eq!(o.reason, "line trial unit, not for delivery");
+    assert!(!o.by.is_empty());
+    let csv = app
+        .get(&engineer, &format!("{path}?format=csv&override={reason}"))
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(csv.contains("# verdict: needs_review"), "{csv}");
+    assert!(csv.contains("# verdict_override_reason: line trial unit, not for delivery"));
     app.stop().await;
 }

@@ -149,6 +149,17 @@ async fn roles_hold_on_every_page_and_action_and_forms_need_their_csrf_token() {
         };
         sessions.push((role, app.sign_in(&token).await));
     }
+    // The run is accepted (no product, a clean check): its page links the
+    // compensation file and asks no reason.
+    let page = sessions[2]
+        .1
+        .get(&format!("/runs/{run}"))
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(page.contains("compensation.json\" download"), "{page}");
+    assert!(!page.contains("compensation-override"));
     for (path, allowed) in PAGES {
         let path = fill(path, &run, serial);
         for (role, s) in &sessions {
@@ -300,5 +311,35 @@ async fn the_upload_form_stores_a_run_and_refuses_bad_files_with_the_reason() {
         .await
         .unwrap()
         .contains(&id[..8]));
+    app.stop().await;
+}
+
+/// A run the acceptance did not accept (its product has no product type)
+/// offers no compensation link: its page asks for a reason, the download
+/// without one is refused, and with one the file records it.
+#[tokio::test]
+async fn the_compensation_of_a_run_not_accepted_is_downloaded_only_with_a_reason() {
+    let app = spawn_app(1).await;
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = short_run(dir.path(), 4, DataFormat::Csv, "U-OVR");
+    let mut meta: serde_json::Value = serde_json::from_slice(&run.metadata).unwrap();
+    meta["product"] = serde_json::json!("NO-SUCH-TYPE");
+    run.metadata = serde_json::to_vec(&meta).unwrap();
+    let (id, job) = app.upload_and_calibrate("U-OVR", &run, CALIBRATION).await;
+    assert_eq!(job["state"], "succeeded", "{job}");
+    let s = app.sign_in(&app.admin).await;
+    let page = s.get(&format!("/runs/{id}")).await.text().await.unwrap();
+    assert!(page.contains("id=\"compensation-override\""), "{page}");
+    assert!(!page.contains("compensation.json\" download"), "{page}");
+    let file = format!("/runs/{id}/files/compensation.json");
+    assert_eq!(s.get(&file).await.status(), StatusCode::CONFLICT);
+    let r = s.get(&format!("{file}?override=bench+trial")).await;
+    assert_eq!(r.status(), StatusCode::OK);
+    let json: serde_json::Value = r.json().await.unwrap();
+    assert_eq!(json["provenance"]["verdict"], "needs_review");
+    assert_eq!(
+        json["provenance"]["verdict_override"]["reason"],
+        "bench trial"
+    );
     app.stop().await;
 }

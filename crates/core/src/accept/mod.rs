@@ -12,5 +12,6 @@ pub mod verdict;
 
 pub use limits::{LimitError, LimitKind, ParameterLimits, ProductLimits};
 pub use verdict::{
-    judge, Evidence, FailedLimit, Product, ReviewReason, Verdict, VerdictStatus, REPEATABILITY_RUNS,
+    judge, Evidence, FailedLimit, ParameterCheck, Product, ReviewReason, Verdict, VerdictStatus,
+    REPEATABILITY_RUNS,
 };

@@ -137,6 +137,43 @@ impl Verdict {
             _ => &[],
         }
     }
+
+    /// How one parameter with (`limited`) or without limits stands. Under
+    /// an inadequate model check a value within its limits is not a pass:
+    /// the misfit the 24 parameters leave may be in it.
+    pub fn parameter_check(&self, parameter: &str, limited: bool) -> ParameterCheck {
+        if self.failed().iter().any(|f| f.parameter == parameter) {
+            ParameterCheck::Fail
+        } else if !limited {
+            ParameterCheck::NoLimit
+        } else if self.reasons().contains(&ReviewReason::ModelInadequate) {
+            ParameterCheck::Unverified
+        } else {
+            ParameterCheck::Pass
+        }
+    }
+}
+
+/// One parameter against its product's limits, as a verdict judged it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParameterCheck {
+    Pass,
+    Fail,
+    /// Within its limits, but the model check found the result does not
+    /// explain the run.
+    Unverified,
+    NoLimit,
+}
+
+impl ParameterCheck {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ParameterCheck::Pass => "pass",
+            ParameterCheck::Fail => "fail",
+            ParameterCheck::Unverified => "unverified",
+            ParameterCheck::NoLimit => "no limit",
+        }
+    }
 }
 
 /// A verdict on the wire: `{"status", "failed", "reasons"}`.
@@ -496,5 +533,26 @@ mod tests {
         );
         assert!(serde_json::from_str::<Verdict>(r#"{"status": "rejected"}"#).is_err());
         assert!(serde_json::from_str::<Verdict>(r#"{"status": "needs_review"}"#).is_err());
+    }
+
+    #[test]
+    fn under_an_inadequate_model_check_a_value_within_its_limits_is_unverified() {
+        let wide = limits(&[("gyro_bias_x", LimitKind::MaxAbsValue, 1e9)]);
+        let v = Case::clean().judge(Product::Known(&wide));
+        assert_eq!(v.parameter_check("gyro_bias_x", true), ParameterCheck::Pass);
+        assert_eq!(
+            v.parameter_check("gyro_bias_y", false),
+            ParameterCheck::NoLimit
+        );
+        let mut c = Case::clean();
+        c.adequate = Some(false);
+        let v = c.judge(Product::Known(&wide));
+        assert_eq!(
+            v.parameter_check("gyro_bias_x", true),
+            ParameterCheck::Unverified
+        );
+        let tight = limits(&[("gyro_bias_x", LimitKind::MaxAbsValue, 0.5)]);
+        let v = c.judge(Product::Known(&tight));
+        assert_eq!(v.parameter_check("gyro_bias_x", true), ParameterCheck::Fail);
     }
 }

@@ -60,6 +60,23 @@ pub struct Provenance {
     /// apply (it holds the 24 base parameters only).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub effects_not_applied: Vec<String>,
+    /// The acceptance verdict on the result when the file was made
+    /// (`accepted`, `rejected`, `needs_review`; `unjudged` for a result
+    /// never judged): a loader can refuse a file that is not `accepted`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict: Option<String>,
+    /// Who took the file of a result that is not accepted, and why.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verdict_override: Option<VerdictOverride>,
+}
+
+/// An engineer's decision to release the compensation of a result the
+/// acceptance did not accept.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct VerdictOverride {
+    /// The token (or signed-in session's token) that asked.
+    pub by: String,
+    pub reason: String,
 }
 
 /// One sensor triad's terms. Matrices are row = sensor, column = input

@@ -21,7 +21,9 @@ pub mod thermal;
 
 pub use apply::Compensated;
 pub use convention::Convention;
-pub use file::{CompensationError, CompensationFile, Provenance, FORMAT_TAG, FORMAT_VERSION};
+pub use file::{
+    CompensationError, CompensationFile, Provenance, VerdictOverride, FORMAT_TAG, FORMAT_VERSION,
+};
 
 #[cfg(test)]
 mod tests;

@@ -74,6 +74,15 @@ impl CompensationFile {
                 "model_check_adequate",
                 p.model_check_adequate.map(|a| a.to_string()),
             ),
+            ("verdict", p.verdict.clone()),
+            (
+                "verdict_override_by",
+                p.verdict_override.as_ref().map(|o| o.by.clone()),
+            ),
+            (
+                "verdict_override_reason",
+                p.verdict_override.as_ref().map(|o| o.reason.clone()),
+            ),
         ];
         for (name, value) in optional {
             if let Some(v) = value {

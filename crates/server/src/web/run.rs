@@ -5,7 +5,7 @@
 //! per-dwell residuals, downloads, and the actions the session's role may
 //! take.
 
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::http::{header, HeaderValue};
 use axum::response::{Html, IntoResponse, Response};
 use axum::Form;
@@ -18,10 +18,11 @@ use super::layout::{self, action_button};
 use super::run_plots::{convergence_charts, residual_chart};
 use super::session::{see_other, CsrfForm};
 use crate::api::auth::roles::{self, Implies};
+use crate::api::compensation::{compensation_of, override_of};
 use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run};
 use crate::api::{parse_id, AppState};
 use crate::store::{JobRow, RunId, RunRow, StoredVerdict};
-use sinscal_core::accept::{LimitKind, ProductLimits, Verdict};
+use sinscal_core::accept::{LimitKind, ParameterCheck, ProductLimits, Verdict, VerdictStatus};
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::model::PARAMETERS;
@@ -127,10 +128,13 @@ pub async fn page(
                 "Download: "
                 a href={ "/runs/" (run.id) "/files/result.json" } download { "result JSON" }
                 a href={ "/runs/" (run.id) "/files/result.csv" } download { "result CSV" }
-                a href={ "/runs/" (run.id) "/files/compensation.json" } download { "compensation JSON" }
-                a href={ "/runs/" (run.id) "/files/compensation.csv" } download { "compensation CSV" }
+                @if accepted(verdict.as_ref()) {
+                    a href={ "/runs/" (run.id) "/files/compensation.json" } download { "compensation JSON" }
+                    a href={ "/runs/" (run.id) "/files/compensation.csv" } download { "compensation CSV" }
+                }
                 a href={ "/runs/" (run.id) "/certificate" } { "certificate" }
             }
+            @if !accepted(verdict.as_ref()) { (override_form(run.id)) }
             h2 { "Parameters" }
             (parameter_table(r, limits.as_ref(), verdict.as_ref().map(|v| &v.verdict)))
             (checks(r))
@@ -249,6 +253,35 @@ fn verdict_block(v: Option<&StoredVerdict>) -> Markup {
     }
 }
 
+fn accepted(verdict: Option<&StoredVerdict>) -> bool {
+    verdict.is_some_and(|v| v.verdict.status() == VerdictStatus::Accepted)
+}
+
+/// The compensation file of a run that is not accepted: released on a
+/// stated reason, which the file records with the verdict.
+fn override_form(id: RunId) -> Markup {
+    let file = |form: &str| format!("/runs/{id}/files/compensation.{form}");
+    html! {
+        form #compensation-override method="get" action=(file("json")) {
+            label for="override" { "Compensation file of a run that is not accepted — reason (recorded in the file): " }
+            input #override type="text" name="override" required maxlength="300";
+            button type="submit" { "JSON" }
+            button type="submit" formaction=(file("csv")) { "CSV" }
+        }
+    }
+}
+
+/// The style of a parameter's check: an unverified value is marked as
+/// doubtful, not as passed.
+fn check_class(c: ParameterCheck) -> &'static str {
+    match c {
+        ParameterCheck::Pass => "pass",
+        ParameterCheck::Fail => "fail",
+        ParameterCheck::Unverified => "unverified",
+        ParameterCheck::NoLimit => "muted",
+    }
+}
+
 fn limit_text(limits: Option<&ProductLimits>, i: usize, kind: LimitKind) -> String {
     limits
         .and_then(|l| l.of(i).get(kind))
@@ -262,8 +295,11 @@ pub(super) fn parameter_table(
     limits: Option<&ProductLimits>,
     verdict: Option<&Verdict>,
 ) -> Markup {
-    let failed =
-        |name: &str| verdict.is_some_and(|v| v.failed().iter().any(|f| f.parameter == name));
+    let check = |name: &str, limited: bool| {
+        verdict.map_or(ParameterCheck::NoLimit, |v| {
+            v.parameter_check(name, limited)
+        })
+    };
     html! {
         table #parameters {
             thead { tr {
@@ -273,16 +309,15 @@ pub(super) fn parameter_table(
             tbody {
                 @for (i, p) in PARAMETERS.iter().enumerate() {
                     @if let Some(e) = r.parameters.get(p.name) {
-                        @let fail = failed(p.name);
-                        @let limited = limits.is_some_and(|l| !l.of(i).is_empty());
-                        tr class=[fail.then_some("fail")] {
+                        @let c = check(p.name, limits.is_some_and(|l| !l.of(i).is_empty()));
+                        tr class=[(c == ParameterCheck::Fail).then_some("fail")] {
                             td { (p.name) }
                             td.num { (format::sig(e.value, 6)) }
                             td.num { (format::sig(e.sigma, 3)) }
                             td { (e.unit) }
                             td.num { (limit_text(limits, i, LimitKind::MaxAbsValue)) }
                             td.num { (limit_text(limits, i, LimitKind::MaxSigma)) }
-                            td { @if fail { span.fail { "fail" } } @else if limited { span.pass { "pass" } } @else { span.muted { "no limit" } } }
+                            td { span class=(check_class(c)) { (c.as_str()) } }
                         }
                     }
                 }
@@ -443,6 +478,14 @@ impl RunFile {
     }
 }
 
+/// A download's query: the reason that releases the compensation file of
+/// a run that is not accepted.
+#[derive(Debug, serde::Deserialize)]
+pub struct DownloadQuery {
+    #[serde(default, rename = "override")]
+    override_reason: Option<String>,
+}
+
 /// `/runs/{id}/files/{name}`: the result (JSON as the API answers it, or
 /// CSV: one row per parameter, the 24 then effects) or the compensation
 /// file (JSON or CSV), as an attachment named for the unit and run.
@@ -452,6 +495,7 @@ pub async fn download(
     State(st): State<AppState>,
     session: PageCaller<roles::Follow>,
     Path((id, name)): Path<(String, String)>,
+    Query(q): Query<DownloadQuery>,
 ) -> Result<Response, PageError> {
     let (name, file) = RunFile::named(&name)
         .ok_or_else(|| PageError::not_found(format!("no run file {name:?}")))?;
@@ -469,7 +513,8 @@ pub async fn download(
             ("text/csv", result_csv(&r))
         }
         RunFile::CompensationJson | RunFile::CompensationCsv => {
-            let c = crate::api::compensation::compensation_of(&st, run.id).await?;
+            let overridden = override_of(session.caller(), q.override_reason.as_deref())?;
+            let c = compensation_of(&st, run.id, overridden).await?;
             if file == RunFile::CompensationJson {
                 ("application/json", c.to_json())
             } else {
