@@ -157,6 +157,17 @@ async fn verdicts_follow_limits_checks_and_filters() {
         .map(|r| r["reason"].as_str().unwrap())
         .collect();
     assert!(reasons.contains(&"model_inadequate"), "{reasons:?}");
+    // Its page says so in words, and a value within its limits is not
+    // shown as passing.
+    let page = app.sign_in(&app.admin).await;
+    let html = page
+        .get(&format!("/runs/{}", odd["id"].as_str().unwrap()))
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(html.contains("the model check found a misfit"), "{html}");
+    assert!(html.contains(">unverified<") && !html.contains(">pass<"));
 
     // Filters.
     assert_eq!(unit_serials(&app, "?verdict=accepted").await, ["ACC-1"]);
@@ -378,5 +389,34 @@ async fn product_types_are_admin_managed_and_validated() {
     )
     .await;
     assert_eq!(problem(r).await.0, StatusCode::NOT_FOUND);
+    app.stop().await;
+}
+
+/// A run whose metadata declares a scheme it did not finish (ten positions
+/// recorded, `ten-position-9+9`'s nineteen declared) needs review, saying
+/// how far it got; the same run declaring what it did is accepted.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_short_of_its_declared_scheme_needs_review() {
+    let app = spawn_app(1).await;
+    for (serial, declared, reasons) in [
+        (
+            "SHORT-1",
+            "ten-position-9+9",
+            json!([{"reason": "short_of_scheme", "dwells": 10, "declared": 19}]),
+        ),
+        ("SHORT-2", "ten-position", json!([])),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut run = short_run(dir.path(), 5, DataFormat::F64le, serial);
+        let mut meta: Value = serde_json::from_slice(&run.metadata).unwrap();
+        meta["scheme"] = json!(declared);
+        run.metadata = serde_json::to_vec(&meta).unwrap();
+        let (run_id, job) = app
+            .upload_and_calibrate(serial, &run, Duration::from_secs(300))
+            .await;
+        assert_eq!(job["state"], "succeeded", "{job}");
+        let view = app.get_run(&run_id).await;
+        assert_eq!(view["verdict"]["reasons"], reasons, "{view}");
+    }
     app.stop().await;
 }

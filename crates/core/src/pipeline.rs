@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use crate::calib::result::RunTemperature;
+use crate::calib::result::{RunTemperature, SchemeCoverage};
 use crate::calib::temperature::TemperatureCurve;
 use crate::calib::{
     self, CalibError, CalibrationResult, DetectOptions, EstimateOptions, Progress, RecordSource,
@@ -124,7 +124,24 @@ pub fn calibrate_file(
     if let Some(t) = meta.temperature_c {
         result.temperature = Some(RunTemperature::soaked(t));
     }
+    result.scheme_coverage = scheme_coverage(meta, &result);
     Ok(result)
+}
+
+/// The dwells the calibration found against the positions of the scheme
+/// the metadata declares (a built-in's positions do not depend on its
+/// dwell); `None` when it declares none or names no known scheme.
+fn scheme_coverage(meta: &RunMetadata, result: &CalibrationResult) -> Option<SchemeCoverage> {
+    let declared = meta.scheme.as_ref()?.resolve(None).ok()?;
+    let dwells_found = result
+        .segments
+        .iter()
+        .filter(|s| s.kind == SegmentKind::Dwell)
+        .count();
+    Some(SchemeCoverage {
+        dwells_found,
+        positions_declared: declared.positions(),
+    })
 }
 
 /// Diagnoses the run in `data` described by `meta`: the one

@@ -98,6 +98,41 @@ pub enum ReviewReason {
     /// The product type bounds repeatability, which needs `needed` runs;
     /// the unit has `runs` calibrated runs up to this one.
     TooFewRuns { runs: i64, needed: i64 },
+    /// The run stopped short of the scheme its metadata declares: the
+    /// calibration found `dwells` of its `declared` positions.
+    ShortOfScheme { dwells: i64, declared: i64 },
+}
+
+impl ReviewReason {
+    /// The reason in words, for a page or a certificate.
+    pub fn describe(&self) -> String {
+        let list = |p: &[String]| p.join(", ");
+        match self {
+            ReviewReason::ModelInadequate => {
+                "the model check found a misfit the parameters do not explain".into()
+            }
+            ReviewReason::PoorlyObservable { parameters } => {
+                format!("the run left these poorly observable: {}", list(parameters))
+            }
+            ReviewReason::CrossCheckFlagged { parameters } => format!(
+                "the filter and the least-squares cross-check disagree on: {}",
+                list(parameters)
+            ),
+            ReviewReason::MissingParameters { parameters } => format!(
+                "the result lacks parameters the product type limits: {}",
+                list(parameters)
+            ),
+            ReviewReason::UnknownProduct { product } => {
+                format!("the run names product {product:?}, which has no product type")
+            }
+            ReviewReason::TooFewRuns { runs, needed } => {
+                format!("repeatability needs {needed} calibrated runs; the unit has {runs}")
+            }
+            ReviewReason::ShortOfScheme { dwells, declared } => format!(
+                "the run is shorter than its declared scheme: {dwells} of {declared} positions"
+            ),
+        }
+    }
 }
 
 /// The verdict on one result.
@@ -244,6 +279,9 @@ pub struct Evidence<'a> {
     pub repeatability: &'a [Option<f64>; N_PARAMS],
     /// How many calibrated runs that covers.
     pub runs: i64,
+    /// The positions the calibration found and those the run's declared
+    /// scheme has, when it declares one.
+    pub scheme_dwells: Option<(i64, i64)>,
 }
 
 /// The product a run is judged against.
@@ -271,6 +309,9 @@ pub fn judge(ev: &Evidence<'_>, product: Product<'_>) -> Verdict {
         reasons.push(ReviewReason::CrossCheckFlagged {
             parameters: ev.cross_check_flagged.to_vec(),
         });
+    }
+    if let Some((dwells, declared)) = ev.scheme_dwells.filter(|(f, d)| f < d) {
+        reasons.push(ReviewReason::ShortOfScheme { dwells, declared });
     }
     let mut failed = Vec::new();
     let mut missing = Vec::new();
@@ -338,221 +379,4 @@ pub fn judge(ev: &Evidence<'_>, product: Product<'_>) -> Verdict {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_verdict_reads_its_own_spelling_and_names_the_others_when_refused() {
-        for v in VerdictStatus::ALL {
-            assert_eq!(v.to_string().parse::<VerdictStatus>(), Ok(v));
-        }
-        assert_eq!(
-            "ok".parse::<VerdictStatus>(),
-            Err("unknown verdict \"ok\": accepted, rejected or needs_review".to_string())
-        );
-    }
-
-    struct Case {
-        values: [f64; N_PARAMS],
-        sigmas: [f64; N_PARAMS],
-        repeat: [Option<f64>; N_PARAMS],
-        runs: i64,
-        adequate: Option<bool>,
-        poorly: Vec<String>,
-        flagged: Vec<String>,
-    }
-
-    impl Case {
-        fn clean() -> Case {
-            Case {
-                values: [1.0; N_PARAMS],
-                sigmas: [0.1; N_PARAMS],
-                repeat: [Some(0.2); N_PARAMS],
-                runs: 3,
-                adequate: Some(true),
-                poorly: Vec::new(),
-                flagged: Vec::new(),
-            }
-        }
-
-        fn judge(&self, product: Product<'_>) -> Verdict {
-            let ev = Evidence {
-                values: &self.values,
-                sigmas: &self.sigmas,
-                model_adequate: self.adequate,
-                poorly_observable: &self.poorly,
-                cross_check_flagged: &self.flagged,
-                repeatability: &self.repeat,
-                runs: self.runs,
-            };
-            judge(&ev, product)
-        }
-    }
-
-    fn limits(entries: &[(&str, LimitKind, f64)]) -> ProductLimits {
-        let mut l = ProductLimits::default();
-        for (name, kind, max) in entries {
-            l.set(name, *kind, *max).unwrap();
-        }
-        l
-    }
-
-    #[test]
-    fn within_every_limit_is_accepted() {
-        let l = limits(&[
-            ("gyro_bias_x", LimitKind::MaxAbsValue, 1.0),
-            ("gyro_bias_x", LimitKind::MaxSigma, 0.1),
-            ("accel_quad_z", LimitKind::MaxRepeatability, 0.25),
-        ]);
-        // At the bound is within it.
-        assert_eq!(Case::clean().judge(Product::Known(&l)), Verdict::Accepted);
-        assert_eq!(Case::clean().judge(Product::None), Verdict::Accepted);
-    }
-
-    #[test]
-    fn each_exceeded_bound_is_named() {
-        let mut c = Case::clean();
-        c.values[0] = -1.5;
-        c.sigmas[3] = 0.3;
-        c.repeat[23] = Some(0.4);
-        let l = limits(&[
-            ("gyro_bias_x", LimitKind::MaxAbsValue, 1.0),
-            ("gyro_scale_x", LimitKind::MaxSigma, 0.2),
-            ("accel_quad_z", LimitKind::MaxRepeatability, 0.25),
-        ]);
-        let v = c.judge(Product::Known(&l));
-        assert_eq!(v.status(), VerdictStatus::Rejected);
-        let named: Vec<(&str, LimitKind, f64)> = v
-            .failed()
-            .iter()
-            .map(|f| (f.parameter.as_str(), f.limit, f.actual))
-            .collect();
-        assert_eq!(
-            named,
-            [
-                ("gyro_bias_x", LimitKind::MaxAbsValue, 1.5),
-                ("gyro_scale_x", LimitKind::MaxSigma, 0.3),
-                ("accel_quad_z", LimitKind::MaxRepeatability, 0.4),
-            ]
-        );
-        assert_eq!(v.failed()[0].unit, "deg/h");
-        assert_eq!(v.failed()[0].max, 1.0);
-    }
-
-    #[test]
-    fn doubts_outrank_failures_and_keep_them() {
-        let l = limits(&[("gyro_bias_x", LimitKind::MaxAbsValue, 0.5)]);
-        let mut c = Case::clean();
-        c.adequate = Some(false);
-        c.poorly = vec!["accel_quad_x".into()];
-        c.flagged = vec!["gyro_bias_y".into()];
-        let v = c.judge(Product::Known(&l));
-        assert_eq!(v.status(), VerdictStatus::NeedsReview);
-        assert_eq!(
-            v.reasons(),
-            [
-                ReviewReason::ModelInadequate,
-                ReviewReason::PoorlyObservable {
-                    parameters: vec!["accel_quad_x".into()]
-                },
-                ReviewReason::CrossCheckFlagged {
-                    parameters: vec!["gyro_bias_y".into()]
-                },
-            ]
-        );
-        assert_eq!(v.failed().len(), 1);
-        // Without a product, the checks alone decide; no check means clear.
-        assert_eq!(c.judge(Product::None).status(), VerdictStatus::NeedsReview);
-        let mut old = Case::clean();
-        old.adequate = None;
-        assert_eq!(old.judge(Product::None), Verdict::Accepted);
-    }
-
-    #[test]
-    fn an_unknown_product_or_a_missing_parameter_needs_review() {
-        let v = Case::clean().judge(Product::Unknown("SINS-X"));
-        assert_eq!(
-            v.reasons(),
-            [ReviewReason::UnknownProduct {
-                product: "SINS-X".into()
-            }]
-        );
-        let mut c = Case::clean();
-        c.values[5] = f64::NAN;
-        let l = limits(&[("gyro_scale_z", LimitKind::MaxSigma, 1.0)]);
-        assert_eq!(
-            c.judge(Product::Known(&l)).reasons(),
-            [ReviewReason::MissingParameters {
-                parameters: vec!["gyro_scale_z".into()]
-            }]
-        );
-    }
-
-    #[test]
-    fn repeatability_needs_two_runs_but_a_failure_is_final() {
-        let mut c = Case::clean();
-        c.repeat = [None; N_PARAMS];
-        c.runs = 1;
-        let l = limits(&[
-            ("gyro_bias_x", LimitKind::MaxRepeatability, 0.1),
-            ("gyro_bias_x", LimitKind::MaxAbsValue, 2.0),
-        ]);
-        let v = c.judge(Product::Known(&l));
-        assert_eq!(
-            v.reasons(),
-            [ReviewReason::TooFewRuns { runs: 1, needed: 2 }]
-        );
-        c.values[0] = 3.0;
-        assert_eq!(
-            c.judge(Product::Known(&l)).status(),
-            VerdictStatus::Rejected
-        );
-    }
-
-    #[test]
-    fn the_wire_form_round_trips_and_refuses_contradictions() {
-        let l = limits(&[("gyro_bias_x", LimitKind::MaxAbsValue, 0.5)]);
-        let mut c = Case::clean();
-        c.adequate = Some(false);
-        for v in [
-            Case::clean().judge(Product::None),
-            Case::clean().judge(Product::Known(&l)),
-            c.judge(Product::Known(&l)),
-        ] {
-            let text = serde_json::to_string(&v).unwrap();
-            assert_eq!(serde_json::from_str::<Verdict>(&text).unwrap(), v);
-        }
-        let json = serde_json::to_value(Case::clean().judge(Product::Known(&l))).unwrap();
-        assert_eq!(json["status"], "rejected");
-        assert_eq!(json["failed"][0]["limit"], "max_abs_value");
-        assert_eq!(json["reasons"], serde_json::json!([]));
-        let too_few = serde_json::to_value(ReviewReason::TooFewRuns { runs: 1, needed: 2 });
-        assert_eq!(
-            too_few.unwrap(),
-            serde_json::json!({"reason": "too_few_runs", "runs": 1, "needed": 2})
-        );
-        assert!(serde_json::from_str::<Verdict>(r#"{"status": "rejected"}"#).is_err());
-        assert!(serde_json::from_str::<Verdict>(r#"{"status": "needs_review"}"#).is_err());
-    }
-
-    #[test]
-    fn under_an_inadequate_model_check_a_value_within_its_limits_is_unverified() {
-        let wide = limits(&[("gyro_bias_x", LimitKind::MaxAbsValue, 1e9)]);
-        let v = Case::clean().judge(Product::Known(&wide));
-        assert_eq!(v.parameter_check("gyro_bias_x", true), ParameterCheck::Pass);
-        assert_eq!(
-            v.parameter_check("gyro_bias_y", false),
-            ParameterCheck::NoLimit
-        );
-        let mut c = Case::clean();
-        c.adequate = Some(false);
-        let v = c.judge(Product::Known(&wide));
-        assert_eq!(
-            v.parameter_check("gyro_bias_x", true),
-            ParameterCheck::Unverified
-        );
-        let tight = limits(&[("gyro_bias_x", LimitKind::MaxAbsValue, 0.5)]);
-        let v = c.judge(Product::Known(&tight));
-        assert_eq!(v.parameter_check("gyro_bias_x", true), ParameterCheck::Fail);
-    }
-}
+mod tests;

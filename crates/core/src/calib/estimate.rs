@@ -332,6 +332,7 @@ fn estimate_from(
         // caller that read the metadata fills it.
         temperature: ctx.temperature.as_ref().map(TemperatureCurve::summary),
         thermal,
+        scheme_coverage: None,
     };
     Ok(Calibrated {
         result,

@@ -187,6 +187,17 @@ pub struct CalibrationResult {
     /// model, SPEC §3a's form; `parameters` are then the values at 25 °C.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub thermal: Option<RunThermal>,
+    /// When the run's metadata declares a scheme: how many of its
+    /// positions the calibration found at rest.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scheme_coverage: Option<SchemeCoverage>,
+}
+
+/// A run's dwells against the positions of the scheme it declares.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SchemeCoverage {
+    pub dwells_found: usize,
+    pub positions_declared: usize,
 }
 
 /// The noise model a calibration assumed, per body axis (x, y, z), in

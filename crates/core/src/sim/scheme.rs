@@ -225,6 +225,16 @@ const NINE_MORE: [(Axis, f64); 9] = [
 ];
 
 impl Scheme {
+    /// The positions it rests in: each run of consecutive dwells is one.
+    pub fn positions(&self) -> usize {
+        let dwell = |s: &Step| matches!(s, Step::Dwell { .. });
+        let starts = self
+            .steps
+            .windows(2)
+            .filter(|w| !dwell(&w[0]) && dwell(&w[1]));
+        starts.count() + usize::from(self.steps.first().is_some_and(dwell))
+    }
+
     /// A built-in scheme by name with the given dwell.
     pub fn builtin(name: &str, dwell_s: f64) -> Option<Scheme> {
         match name {
@@ -335,5 +345,22 @@ mod tests {
         )
         .unwrap();
         assert!(s.validate().unwrap_err().contains("step 1"));
+    }
+
+    #[test]
+    fn positions_count_each_run_of_dwells_once() {
+        assert_eq!(
+            Scheme::builtin("ten-position", 30.0).unwrap().positions(),
+            10
+        );
+        assert_eq!(
+            Scheme::builtin("ten-position-9+9", 30.0)
+                .unwrap()
+                .positions(),
+            19
+        );
+        let mut s = Scheme::builtin("ten-position", 30.0).unwrap();
+        s.steps.insert(1, Step::Dwell { dwell_s: 5.0 });
+        assert_eq!(s.positions(), 10);
     }
 }

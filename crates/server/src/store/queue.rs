@@ -252,6 +252,7 @@ impl Store {
                 .as_ref()
                 .map_or(&[], |c| c.flagged.as_slice()),
             temperature: result.temperature,
+            scheme: result.scheme_coverage,
             document: &result_json,
         };
         insert_result(&mut tx, &stored).await?;

@@ -16,7 +16,7 @@ use super::runs::{insert_unit_and_run, NewRun};
 use super::spread::{self, ParamSpread, SpreadAccumulator};
 use super::verdicts::{refresh_unit, StoredVerdict};
 use sinscal_core::accept::VerdictStatus;
-use sinscal_core::calib::result::RunTemperature;
+use sinscal_core::calib::result::{RunTemperature, SchemeCoverage};
 use sinscal_core::calib::{CalibrationResult, ModelCheck, ParameterEstimate};
 use sinscal_core::diagnose::DiagnoseReport;
 use sinscal_core::io::UnitSerial;
@@ -364,6 +364,7 @@ impl Store {
             poorly_observable: &[],
             cross_check_flagged: &[],
             temperature: None,
+            scheme: None,
             document: &document,
         };
         insert_result(&mut tx, &stored).await?;
@@ -386,6 +387,8 @@ pub(super) struct StoredResult<'a> {
     pub(super) cross_check_flagged: &'a [String],
     /// The run's temperature, when it stated one.
     pub(super) temperature: Option<RunTemperature>,
+    /// Its dwells against its declared scheme's positions, when declared.
+    pub(super) scheme: Option<SchemeCoverage>,
     /// The whole `CalibrationResult` JSON.
     pub(super) document: &'a str,
 }
@@ -397,8 +400,9 @@ pub(super) async fn insert_result(
     sqlx::query(
         "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
                               param_values, model_adequate, model_summary, poorly_observable,
-                              cross_check_flagged, temperature_c, temperature_span_c)
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13)",
+                              cross_check_flagged, temperature_c, temperature_span_c,
+                              scheme_dwells_found, scheme_positions_declared)
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
     )
     .bind(r.run_id)
     .bind(r.job_id)
@@ -413,6 +417,8 @@ pub(super) async fn insert_result(
     .bind(serde_json::to_string(r.cross_check_flagged)?)
     .bind(r.temperature.map(|t| t.mean_c))
     .bind(r.temperature.map(|t| t.max_c - t.min_c))
+    .bind(r.scheme.map(|s| s.dwells_found as i64))
+    .bind(r.scheme.map(|s| s.positions_declared as i64))
     .execute(&mut **tx)
     .await?;
     sqlx::query("INSERT INTO result_documents (run_id, result) VALUES ($1, $2)")

@@ -36,6 +36,8 @@ struct Judged {
     verdict_detail: Option<String>,
     verdict_product: Option<String>,
     verdict_revision: Option<i64>,
+    scheme_dwells_found: Option<i64>,
+    scheme_positions_declared: Option<i64>,
 }
 
 /// A product type as a verdict reads it.
@@ -74,7 +76,7 @@ pub(super) async fn refresh_unit(
     let rows: Vec<Judged> = sqlx::query_as(
         "SELECT s.run_id, s.parameters, s.param_values, s.model_adequate, s.poorly_observable,
                 s.cross_check_flagged, r.product, s.verdict_detail, s.verdict_product,
-                s.verdict_revision
+                s.verdict_revision, s.scheme_dwells_found, s.scheme_positions_declared
          FROM results s JOIN runs r ON r.id = s.run_id
          WHERE s.unit_serial = $1 AND (s.run_time, s.run_id) >= ($2, $3)
          ORDER BY s.run_time, s.run_id",
@@ -114,6 +116,7 @@ pub(super) async fn refresh_unit(
             cross_check_flagged: &flagged,
             repeatability: &repeatability,
             runs,
+            scheme_dwells: row.scheme_dwells_found.zip(row.scheme_positions_declared),
         };
         let verdict = judge(&evidence, product);
         let revision = limits.as_ref().map(|l| l.revision);

@@ -246,7 +246,7 @@ fn verdict_block(v: Option<&StoredVerdict>) -> Markup {
                 }
                 @if !v.verdict.reasons().is_empty() {
                     h3 { "Why it needs review" }
-                    ul { @for r in v.verdict.reasons() { li { (serde_json::to_string(r).unwrap_or_default()) } } }
+                    ul { @for r in v.verdict.reasons() { li { (r.describe()) } } }
                 }
             }
         }
