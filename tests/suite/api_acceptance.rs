@@ -193,6 +193,40 @@ async fn verdicts_follow_limits_checks_and_filters() {
     let r = app.get(&app.admin, "/units?verdict=great").await;
     assert_eq!(problem(r).await.0, StatusCode::BAD_REQUEST);
 
+    // The API's repeatability judges against the product's limit, as the
+    // verdict and the unit's page do.
+    let spread = |serial: &'static str| {
+        let app = &app;
+        async move {
+            let r = app
+                .get_json(&format!("/units/{serial}/repeatability"))
+                .await;
+            r["parameters"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|p| p["name"] == "accel_bias_z")
+                .unwrap()
+                .clone()
+        }
+    };
+    let z = spread("ACC-1").await;
+    assert_eq!(z["tolerance"], 1000.0, "{z}");
+    assert_eq!(z["tolerance_source"], "product");
+    assert_eq!(z["flagged"], false);
+    let r = send(
+        &app,
+        reqwest::Method::PUT,
+        &app.admin,
+        "/product-types/SINS-A",
+        Some(json!({"limits": {"accel_bias_z": {"max_repeatability": 1e-9}}})),
+    )
+    .await;
+    assert_eq!(r.status(), StatusCode::OK);
+    let z = spread("ACC-1").await;
+    assert_eq!(z["tolerance"], 1e-9, "{z}");
+    assert_eq!(z["flagged"], true);
+
     // Limits change: the verdict follows them, with the new revision.
     let r = send(
         &app,
@@ -203,10 +237,10 @@ async fn verdicts_follow_limits_checks_and_filters() {
     )
     .await;
     assert_eq!(r.status(), StatusCode::OK);
-    assert_eq!(r.json::<Value>().await.unwrap()["revision"], 2);
+    assert_eq!(r.json::<Value>().await.unwrap()["revision"], 3);
     let now = app.get_run(good_id).await;
     assert_eq!(now["verdict"]["status"], "rejected", "{now}");
-    assert_eq!(now["verdict"]["product_revision"], 2);
+    assert_eq!(now["verdict"]["product_revision"], 3);
     assert_eq!(now["verdict"]["failed"][0]["parameter"], "gyro_bias_x");
     let rejected = unit_serials(&app, "?verdict=rejected").await;
     assert_eq!(rejected, ["ACC-1", "REJ-1"]);

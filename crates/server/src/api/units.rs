@@ -13,7 +13,7 @@ use super::error::ApiError;
 use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
 use crate::store::{JobCounts, JobId, Review, RunId, UnitFilter, UnitSummary};
-use sinscal_core::accept::VerdictStatus;
+use sinscal_core::accept::{LimitKind, ProductLimits, VerdictStatus};
 use sinscal_core::io::meta::validate_product;
 use sinscal_core::io::UnitSerial;
 use sinscal_core::model::PARAMETERS;
@@ -150,9 +150,39 @@ pub struct ParameterRepeatability {
     /// Largest |change| between consecutive runs in time order; null below
     /// two runs.
     pub max_change: Option<f64>,
+    /// The unit's product type's `max_repeatability` for the parameter
+    /// when it sets one (as the verdict and the unit's page judge), else
+    /// the server's configured tolerance.
     pub tolerance: Option<f64>,
-    /// The standard deviation or the largest change exceeds the tolerance.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tolerance_source: Option<ToleranceSource>,
+    /// Over a product's limit: the standard deviation exceeds it (the
+    /// verdict's rule). Over the server's tolerance: the standard deviation
+    /// or the largest change exceeds it.
     pub flagged: bool,
+}
+
+/// Where a repeatability tolerance comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ToleranceSource {
+    Product,
+    Server,
+}
+
+/// The limits of the product type a unit's latest run names, when it
+/// exists.
+pub(crate) async fn unit_limits(
+    st: &AppState,
+    product: Option<&str>,
+) -> Result<Option<ProductLimits>, ApiError> {
+    let Some(name) = product else {
+        return Ok(None);
+    };
+    match st.store.get_product_type(name).await? {
+        Some(row) => Ok(Some(row.parsed_limits()?)),
+        None => Ok(None),
+    }
 }
 
 #[derive(Serialize)]
@@ -295,9 +325,10 @@ async fn repeatability(
         .map(|t| parse_time(t, "since"))
         .transpose()?
         .unwrap_or(i64::MIN);
-    if st.store.get_unit(&serial).await?.is_none() {
+    let Some(unit) = st.store.get_unit(&serial).await? else {
         return Err(ApiError::NotFound(format!("no unit {serial}")));
-    }
+    };
+    let limits = unit_limits(&st, unit.product.as_deref()).await?;
     let mut rows = st.store.repeatability(&serial, since, q.last).await?;
     // Canonical order (SPEC §2), not alphabetical.
     let order = |name: &str| {
@@ -312,10 +343,26 @@ async fn repeatability(
         .into_iter()
         .map(|r| {
             let std_dev = (r.n >= 2).then(|| (r.sum_sq.max(0.0) / (r.n - 1) as f64).sqrt());
-            let tolerance = st.config.tolerances.get(&r.name).copied();
-            let flagged = tolerance.is_some_and(|tol| {
-                std_dev.is_some_and(|s| s > tol) || r.max_change.is_some_and(|c| c > tol)
+            let product_limit = limits.as_ref().and_then(|l| {
+                let i = order(&r.name);
+                (i < PARAMETERS.len())
+                    .then(|| l.of(i).get(LimitKind::MaxRepeatability))
+                    .flatten()
             });
+            let (tolerance, tolerance_source, flagged) = match product_limit {
+                Some(limit) => (
+                    Some(limit),
+                    Some(ToleranceSource::Product),
+                    std_dev.is_some_and(|s| s > limit),
+                ),
+                None => {
+                    let tol = st.config.tolerances.get(&r.name).copied();
+                    let over = tol.is_some_and(|tol| {
+                        std_dev.is_some_and(|s| s > tol) || r.max_change.is_some_and(|c| c > tol)
+                    });
+                    (tol, tol.map(|_| ToleranceSource::Server), over)
+                }
+            };
             ParameterRepeatability {
                 range: r.max - r.min,
                 unit: PARAMETERS
@@ -331,6 +378,7 @@ async fn repeatability(
                 max: r.max,
                 max_change: r.max_change,
                 tolerance,
+                tolerance_source,
                 flagged,
             }
         })

@@ -57,13 +57,7 @@ pub async fn page(
         .history(&serial, (i64::MIN, i64::MAX), None, MAX_RUNS, 0)
         .await?;
     let spread = st.store.repeatability(&serial, i64::MIN, None).await?;
-    let limits = match &unit.product {
-        Some(p) => match st.store.get_product_type(p).await? {
-            Some(row) => Some(row.parsed_limits()?),
-            None => None,
-        },
-        None => None,
-    };
+    let limits = crate::api::units::unit_limits(&st, unit.product.as_deref()).await?;
     let mut runs = Vec::with_capacity(rows.len());
     for r in &rows {
         let parameters: BTreeMap<String, ParameterEstimate> =
