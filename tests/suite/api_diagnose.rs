@@ -115,7 +115,69 @@ async fn diagnose_job_names_accel_delay() {
     let run_view = app.get_run(&run_id).await;
     assert_eq!(run_view["job_id"], calib["id"]);
 
+    adopt_the_delay(&app, &run_id, &station, &engineer).await;
     app.stop().await;
+}
+
+/// The diagnosis adopted: the run calibrated again with the delay as a
+/// state, its current result within 3σ of the truth on every parameter,
+/// the base model's result still readable as result 1.
+async fn adopt_the_delay(app: &TestApp, run_id: &str, station: &str, engineer: &str) {
+    let adopt = |token: &str| {
+        app.http
+            .post(app.url(&format!("/runs/{run_id}/diagnosis/adopt")))
+            .bearer_auth(token.to_string())
+            .send()
+    };
+    assert_eq!(
+        problem(adopt(station).await.unwrap()).await.0,
+        StatusCode::FORBIDDEN
+    );
+    let r = adopt(engineer).await.unwrap();
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let job: Value = r.json().await.unwrap();
+    assert_eq!(job["kind"], "calibrate");
+    let done = app
+        .wait_job(job["id"].as_str().unwrap(), Duration::from_secs(600))
+        .await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+
+    let result = app.get_result(run_id).await;
+    assert_eq!(result["model"], "base-24+accel_delay");
+    let truth = ErrorParameters::paper().to_canonical();
+    for (name, value) in &truth {
+        let est = &result["parameters"][name];
+        let (v, s) = (
+            est["value"].as_f64().unwrap(),
+            est["sigma"].as_f64().unwrap(),
+        );
+        assert!(
+            (v - value).abs() <= 3.0 * s,
+            "{name}: {v} ± {s} against the truth {value}"
+        );
+    }
+    let delay = &result["effects"]["accel_delay"];
+    assert!(
+        (delay["value"].as_f64().unwrap() - 2.0).abs() <= 3.0 * delay["sigma"].as_f64().unwrap(),
+        "accel_delay {delay}"
+    );
+
+    let versions: Value = app.get_json(&format!("/runs/{run_id}/results")).await;
+    assert_eq!(versions.as_array().unwrap().len(), 2, "{versions}");
+    assert_eq!(versions[0]["model"], "base-24");
+    assert_eq!(versions[0]["current"], false);
+    assert_eq!(versions[1]["model"], "base-24+accel_delay");
+    assert_eq!(versions[1]["current"], true);
+    let old: Value = app.get_json(&format!("/runs/{run_id}/results/1")).await;
+    assert_eq!(old["model"], "base-24");
+    let r = app
+        .get(&app.admin, &format!("/runs/{run_id}/results/3"))
+        .await;
+    assert_eq!(problem(r).await.0, StatusCode::NOT_FOUND);
+
+    // The same diagnosis again names nothing the current model lacks.
+    let r = adopt(engineer).await.unwrap();
+    assert_eq!(problem(r).await.0, StatusCode::CONFLICT);
 }
 
 #[tokio::test]

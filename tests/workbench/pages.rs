@@ -36,6 +36,7 @@ const PAGES: &[(&str, &[&str])] = &[
 /// others before it changes anything.
 const ACTIONS: &[(&str, &[&str])] = &[
     ("/runs/{run}/diagnose", &["engineer", "admin"]),
+    ("/runs/{run}/adopt", &["engineer", "admin"]),
     ("/runs/{run}/calibrate", &["engineer", "admin"]),
     ("/runs/{run}/delete", &["admin"]),
     ("/admin/tokens", &["admin"]),

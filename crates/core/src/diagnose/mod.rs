@@ -31,6 +31,7 @@
 //! No I/O: records come through `RecordSource`; `pipeline::diagnose_file`
 //! is the file-backed entry point.
 
+pub mod adopt;
 mod assemble;
 pub mod candidates;
 pub mod detect;
@@ -64,6 +65,7 @@ use gap::GapProblem;
 use library::Library;
 use localise::stretch_kinds;
 
+pub use adopt::NotAdoptable;
 pub use error::DiagnoseError;
 pub use options::DiagnoseOptions;
 pub use report::{

@@ -2,6 +2,7 @@
 //! one state struct. Only this module knows HTTP; every error becomes
 //! problem+json in [`error`].
 
+pub(crate) mod adopt;
 pub mod auth;
 pub(crate) mod compensation;
 pub mod error;
@@ -80,6 +81,7 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .merge(operations.clone())
         .route("/openapi.yaml", get(openapi))
         .merge(runs::router())
+        .merge(adopt::router())
         .merge(compensation::router())
         .merge(noise::router())
         .merge(jobs::router())

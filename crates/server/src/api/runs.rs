@@ -245,7 +245,7 @@ pub(crate) async fn remove_run(st: &AppState, id: RunId) -> Result<(), ApiError>
 }
 
 /// A job answer: the job, with its URL in `Location`.
-fn job_answer(status: StatusCode, job: JobRow) -> Response {
+pub(crate) fn job_answer(status: StatusCode, job: JobRow) -> Response {
     let url = format!("/api/v1/jobs/{}", job.id);
     let mut resp = (status, Json(JobView::from(job))).into_response();
     if let Ok(v) = HeaderValue::from_str(&url) {

@@ -221,6 +221,11 @@ impl JobRunner {
                     .await
             }
         };
+        let estimate = match self.estimate_options(claim) {
+            Ok(o) => o,
+            // Validated when it was set; if it no longer parses, no retry helps.
+            Err(e) => return self.fail(claim, &e, false).await,
+        };
         // A local file to stream (for an object store, a scratch download
         // that goes when `local` is dropped, once the blocking work ends
         // however it ends). A store that cannot answer now may later.
@@ -236,7 +241,7 @@ impl JobRunner {
             claim.kind,
             path,
             meta,
-            self.settings.estimate.clone(),
+            estimate,
             (cancel.clone(), progress.clone()),
         );
         let (joined, reason) = self.watch(&claim.fence, task, &cancel, &progress).await;
@@ -275,6 +280,18 @@ impl JobRunner {
                 self.fail(claim, what, true).await
             }
         }
+    }
+
+    /// The estimator's options for a claimed job: the server's, carrying
+    /// the run's own model (adopted, or its product type's) when it has one.
+    fn estimate_options(&self, claim: &Claim) -> Result<EstimateOptions, String> {
+        let mut estimate = self.settings.estimate.clone();
+        if let Some(model) = &claim.model {
+            estimate.model = model
+                .parse()
+                .map_err(|e| format!("the run's stored model: {e}"))?;
+        }
+        Ok(estimate)
     }
 
     /// Waits for the estimator, writing its progress as the lease's

@@ -1,16 +1,18 @@
 //! Jobs as rows: reading them, counting them, cancelling them, and queueing
-//! a diagnosis or a calibration again. (What a worker does to the job it holds is `queue`.)
+//! a diagnosis or a calibration again (with a model adopted for the run). (What a worker does to the job it holds is `queue`.)
 
 use std::collections::BTreeMap;
 
 use sqlx::FromRow;
 
-use super::db::{now_ms, Store};
+use super::db::{now_ms, Store, WriteTx};
 use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
 use super::error::StoreError;
 use super::ids::{JobId, RunId};
 use super::kinds::{Flag, JobKind, JobState};
 use super::verdicts::refresh_unit;
+use super::versions::supersede_current;
+use sinscal_core::calib::ErrorModel;
 
 #[derive(Clone, Debug, FromRow)]
 pub struct JobRow {
@@ -232,7 +234,8 @@ impl Store {
 #[derive(Debug)]
 pub enum CalibrationRequeued {
     /// The run's calibration job is queued again; its earlier result (if
-    /// any) is removed and the unit's verdicts judged again without it.
+    /// any) is superseded (kept, no longer current) and the unit's
+    /// verdicts judged again without it.
     Queued(JobRow),
     /// The calibration job is queued or running already.
     Busy(JobRow),
@@ -240,10 +243,20 @@ pub enum CalibrationRequeued {
     QueueFull,
 }
 
+/// A model adopted for a run from its diagnosis.
+#[derive(Clone, Copy, Debug)]
+pub struct Adoption<'a> {
+    pub model: &'a ErrorModel,
+    /// The diagnose job whose named effects the model adds.
+    pub diagnosis: JobId,
+    /// The token adopting it.
+    pub by: &'a str,
+}
+
 impl Store {
     /// Queues a run's one calibration job again (after a change of the
     /// server's error model or tolerances, or a failure that was fixed),
-    /// in one transaction with the removal of the result it replaces. The
+    /// in one transaction with superseding the result it replaces. The
     /// attempt counter keeps counting, since it fences the job's leases: a
     /// worker of an earlier attempt can never write the new result.
     pub async fn requeue_calibration(
@@ -251,6 +264,31 @@ impl Store {
         run_id: RunId,
         max_attempts: i64,
         max_queue: i64,
+    ) -> Result<CalibrationRequeued, StoreError> {
+        self.requeue_with(run_id, None, (max_attempts, max_queue))
+            .await
+    }
+
+    /// Adopts a model for a run (its calibration jobs carry it from now
+    /// on, whatever its product's or the server's model) and queues its
+    /// calibration with it, as [`Store::requeue_calibration`]: the result
+    /// of the old model stays readable as a superseded result.
+    pub async fn adopt_model(
+        &self,
+        run_id: RunId,
+        adoption: Adoption<'_>,
+        max_attempts: i64,
+        max_queue: i64,
+    ) -> Result<CalibrationRequeued, StoreError> {
+        self.requeue_with(run_id, Some(adoption), (max_attempts, max_queue))
+            .await
+    }
+
+    async fn requeue_with(
+        &self,
+        run_id: RunId,
+        adoption: Option<Adoption<'_>>,
+        (max_attempts, max_queue): (i64, i64),
     ) -> Result<CalibrationRequeued, StoreError> {
         let now = now_ms();
         let mut tx = self.begin_write().await?;
@@ -275,12 +313,10 @@ impl Store {
                 .fetch_one(&mut *tx)
                 .await?;
         lock_key(self.backend, &mut tx, &unit_key(&serial)).await?;
-        for sql in [
-            "DELETE FROM result_documents WHERE run_id = $1",
-            "DELETE FROM results WHERE run_id = $1",
-        ] {
-            sqlx::query(sql).bind(run_id).execute(&mut *tx).await?;
+        if let Some(a) = adoption {
+            record_adoption(&mut tx, run_id, a, now).await?;
         }
+        supersede_current(&mut tx, run_id, now).await?;
         let job = sqlx::query_as(
             "UPDATE jobs SET state = 'queued', max_attempts = attempts + $1, lease_owner = NULL,
                  lease_expires_at = NULL, heartbeat_at = NULL, run_after = $2, progress = 0,
@@ -298,6 +334,27 @@ impl Store {
         tx.commit().await?;
         Ok(CalibrationRequeued::Queued(job))
     }
+}
+
+async fn record_adoption(
+    tx: &mut WriteTx,
+    run_id: RunId,
+    a: Adoption<'_>,
+    now: i64,
+) -> Result<(), StoreError> {
+    sqlx::query(
+        "UPDATE runs SET model = $1, model_diagnosis = $2, model_adopted_by = $3,
+                         model_adopted_at = $4
+         WHERE id = $5",
+    )
+    .bind(a.model.to_string())
+    .bind(a.diagnosis)
+    .bind(a.by)
+    .bind(now)
+    .bind(run_id)
+    .execute(&mut **tx)
+    .await?;
+    Ok(())
 }
 
 #[cfg(test)]

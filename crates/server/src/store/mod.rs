@@ -18,7 +18,9 @@
 //! - `sessions`: the pages' browser sessions, each acting for a live token;
 //! - `runs`: a run's row with its calibration job, reads, deletion;
 //! - `jobs`: job rows: reads, counts, cancel, queueing a diagnosis,
-//!   queueing a calibration again;
+//!   queueing a calibration again, adopting a model for a run;
+//! - `versions`: a run's results over time: the current one superseded
+//!   (kept) when the run is calibrated again, earlier ones read back;
 //! - `queue`: what a worker does to the job it holds (claim, heartbeat,
 //!   complete, fail, cancel, release), every write behind one fence;
 //! - `results`: results, diagnoses, units, history, repeatability;
@@ -45,6 +47,7 @@ mod sessions;
 mod spread;
 mod tokens;
 mod verdicts;
+mod versions;
 
 pub use db::{now_ms, DatabaseUrl, Store};
 pub use dialect::{Backend, JOBS_CHANNEL};
@@ -52,7 +55,7 @@ pub use document::Stored;
 pub use error::{is_storage_full_io, StoreError};
 pub use hints::JobHints;
 pub use ids::{JobId, RunId};
-pub use jobs::{CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow};
+pub use jobs::{Adoption, CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};
 pub use queue::{Claim, Fence, OnInadequate};
@@ -61,3 +64,4 @@ pub use runs::{InsertOutcome, NewRun, Review, RunDeletion, RunFile, RunRow};
 pub use spread::ParamSpread;
 pub use tokens::TokenRow;
 pub use verdicts::StoredVerdict;
+pub use versions::ResultVersion;

@@ -39,6 +39,10 @@ pub struct Claim {
     pub run_time: i64,
     pub blob_path: String,
     pub metadata: String,
+    /// The model a calibration job carries: the one adopted for the run,
+    /// else its product type's (`None`: the server's). As stored, parsed
+    /// by the worker, so that a value it refuses fails this job alone.
+    pub model: Option<String>,
     pub max_attempts: i64,
 }
 
@@ -95,6 +99,7 @@ struct ClaimedRun {
     run_time: i64,
     blob_path: String,
     metadata: String,
+    model: Option<String>,
 }
 
 impl Store {
@@ -168,7 +173,10 @@ impl Store {
             return Ok(None);
         };
         let run: ClaimedRun = sqlx::query_as(
-            "SELECT unit_serial, run_time, blob_path, metadata FROM runs WHERE id = $1",
+            "SELECT r.unit_serial, r.run_time, r.blob_path, r.metadata,
+                    COALESCE(r.model, p.model) AS model
+             FROM runs r LEFT JOIN product_types p ON p.name = r.product
+             WHERE r.id = $1",
         )
         .bind(c.run_id)
         .fetch_one(&mut *tx)
@@ -187,6 +195,7 @@ impl Store {
             run_time: run.run_time,
             blob_path: run.blob_path,
             metadata: run.metadata,
+            model: run.model,
         }))
     }
 
@@ -253,6 +262,7 @@ impl Store {
                 .map_or(&[], |c| c.flagged.as_slice()),
             temperature: result.temperature,
             scheme: result.scheme_coverage,
+            model: Some(&result.model),
             document: &result_json,
         };
         insert_result(&mut tx, &stored).await?;

@@ -17,7 +17,7 @@ use super::spread::{self, ParamSpread, SpreadAccumulator};
 use super::verdicts::{refresh_unit, StoredVerdict};
 use sinscal_core::accept::VerdictStatus;
 use sinscal_core::calib::result::{RunTemperature, SchemeCoverage};
-use sinscal_core::calib::{CalibrationResult, ModelCheck, ParameterEstimate};
+use sinscal_core::calib::{CalibrationResult, ErrorModel, ModelCheck, ParameterEstimate};
 use sinscal_core::diagnose::DiagnoseReport;
 use sinscal_core::io::UnitSerial;
 
@@ -365,6 +365,7 @@ impl Store {
             cross_check_flagged: &[],
             temperature: None,
             scheme: None,
+            model: None,
             document: &document,
         };
         insert_result(&mut tx, &stored).await?;
@@ -389,6 +390,8 @@ pub(super) struct StoredResult<'a> {
     pub(super) temperature: Option<RunTemperature>,
     /// Its dwells against its declared scheme's positions, when declared.
     pub(super) scheme: Option<SchemeCoverage>,
+    /// The model it was made with (`None`: not known, a seeded result).
+    pub(super) model: Option<&'a ErrorModel>,
     /// The whole `CalibrationResult` JSON.
     pub(super) document: &'a str,
 }
@@ -401,8 +404,8 @@ pub(super) async fn insert_result(
         "INSERT INTO results (run_id, job_id, unit_serial, run_time, completed_at, parameters,
                               param_values, model_adequate, model_summary, poorly_observable,
                               cross_check_flagged, temperature_c, temperature_span_c,
-                              scheme_dwells_found, scheme_positions_declared)
-         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15)",
+                              scheme_dwells_found, scheme_positions_declared, model)
+         VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11, $12, $13, $14, $15, $16)",
     )
     .bind(r.run_id)
     .bind(r.job_id)
@@ -419,6 +422,7 @@ pub(super) async fn insert_result(
     .bind(r.temperature.map(|t| t.max_c - t.min_c))
     .bind(r.scheme.map(|s| s.dwells_found as i64))
     .bind(r.scheme.map(|s| s.positions_declared as i64))
+    .bind(r.model.map(ErrorModel::to_string))
     .execute(&mut **tx)
     .await?;
     sqlx::query("INSERT INTO result_documents (run_id, result) VALUES ($1, $2)")

@@ -52,6 +52,12 @@ pub struct RunRow {
     /// were recorded).
     pub uploaded_by: Option<String>,
     pub job_id: JobId,
+    /// The model adopted for the run from a diagnosis, and when (`None`:
+    /// its calibration carries its product type's or the server's).
+    #[sqlx(default)]
+    pub model: Option<String>,
+    #[sqlx(default)]
+    pub model_adopted_at: Option<i64>,
     /// Whether the run has a result (read by [`Store::get_run`]).
     #[sqlx(default, try_from = "Flag")]
     pub calibrated: bool,

@@ -37,6 +37,12 @@ pub async fn page(
             tr { th { "With the named effects" } td.num { (format::sig(report.gap_rms_after * 1e3, 3)) } td.num { (format::sig(report.gap_excess_after * 1e3, 3)) } td.num { (format::sig(report.z_after, 3)) } }
             tr { th { "Noise floor" } td.num { (format::sig(report.noise_floor_rms * 1e3, 3)) } td {} td {} }
         }
+        @if !report.named.is_empty() {
+            p #adopt {
+                (layout::action_button(&session, &format!("/runs/{}/adopt", run.id), "Recalibrate with it", ""))
+                " Calibrates the run again with " (report.named.join(", ")) " as states of the filter; the current result is kept as an earlier one."
+            }
+        }
         @if !report.calibration.effects.is_empty() {
             h2 { "Named effects" }
             table #named {

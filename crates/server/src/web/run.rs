@@ -17,11 +17,12 @@ use super::format;
 use super::layout::{self, action_button};
 use super::run_plots::{convergence_charts, residual_chart};
 use super::session::{see_other, CsrfForm};
+use crate::api::adopt::adopt_latest_diagnosis;
 use crate::api::auth::roles::{self, Implies};
 use crate::api::compensation::{compensation_of, override_of};
 use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run};
 use crate::api::{parse_id, AppState};
-use crate::store::{JobRow, RunId, RunRow, StoredVerdict};
+use crate::store::{JobRow, ResultVersion, RunId, RunRow, StoredVerdict};
 use sinscal_core::accept::{LimitKind, ParameterCheck, ProductLimits, Verdict, VerdictStatus};
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::io::meta::RunMetadata;
@@ -95,6 +96,7 @@ pub async fn page(
     };
     let verdict = run.verdict()?;
     let limits = product_limits(&st, verdict.as_ref()).await?;
+    let versions = st.store.result_versions(run.id).await?;
     let body = html! {
         h1 { "Run " code { (format::short_id(run.id)) } " of unit "
             @if engineer { a href={ "/units/" (run.unit_serial) } { (run.unit_serial) } } @else { (run.unit_serial) } }
@@ -109,7 +111,12 @@ pub async fn page(
                 dt { "Data" } dd { (run.file.records) " records at " (m.sample_rate_hz) " Hz, " (run.file.format) @if run.file.gzip { " (gzip)" } ", " (run.file.size_bytes) " bytes" }
             }
             dt { "sha256" } dd { code { (run.file.sha256) } }
+            @if let Some(r) = &result {
+                dt { "Model" } dd #run-model { (r.model)
+                    @if let (Some(_), Some(at)) = (&run.model, run.model_adopted_at) { " (adopted from its diagnosis " (format::time(at)) ")" } }
+            }
         }
+        @if engineer { (earlier_results(run.id, &versions)) }
         (progress_block(&run, &jobs))
         @if engineer {
             div.actions {
@@ -392,10 +399,34 @@ fn checks(r: &CalibrationResult) -> Markup {
     }
 }
 
+/// The results the run had before its current one (a model adopted, a
+/// calibration asked for again): each kept, with the model it was made
+/// with, and readable through the API.
+fn earlier_results(run_id: RunId, versions: &[ResultVersion]) -> Markup {
+    let earlier: Vec<&ResultVersion> = versions.iter().filter(|v| !v.is_current()).collect();
+    html! {
+        @if !earlier.is_empty() {
+            section #earlier-results {
+                h2 { "Earlier results" }
+                table {
+                    tr { th { "No." } th { "Model" } th { "Completed" } th { "Replaced" } th { "Verdict then" } th { "API" } }
+                    @for v in &earlier {
+                        tr { td.num { (v.seq) } td { (v.model.as_deref().unwrap_or("—")) } td { (format::time(v.completed_at)) }
+                             td { (v.superseded_at.map(format::time).unwrap_or_default()) } td { (v.verdict.as_deref().unwrap_or("—")) }
+                             td { code { "/api/v1/runs/" (run_id) "/results/" (v.seq) } } }
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// What the run page's buttons do, and who may.
 #[derive(Clone, Copy, Debug)]
 enum RunAction {
     Diagnose,
+    /// Adopt the latest diagnosis: calibrate again with its named effects.
+    Adopt,
     Calibrate,
     Delete,
 }
@@ -404,6 +435,7 @@ impl RunAction {
     fn named(name: &str) -> Option<RunAction> {
         match name {
             "diagnose" => Some(RunAction::Diagnose),
+            "adopt" => Some(RunAction::Adopt),
             "calibrate" => Some(RunAction::Calibrate),
             "delete" => Some(RunAction::Delete),
             _ => None,
@@ -415,7 +447,7 @@ impl RunAction {
     /// the caller (the same check the extractors make).
     fn allowed(self, session: &PageCaller<roles::Follow>) -> Result<(), PageError> {
         match self {
-            RunAction::Diagnose | RunAction::Calibrate => {
+            RunAction::Diagnose | RunAction::Adopt | RunAction::Calibrate => {
                 session.narrow::<roles::Engineer>()?;
             }
             RunAction::Delete => {
@@ -426,7 +458,7 @@ impl RunAction {
     }
 }
 
-/// `POST /runs/{id}/{diagnose|calibrate|delete}`: the button's action,
+/// `POST /runs/{id}/{diagnose|adopt|calibrate|delete}`: the button's action,
 /// through the API's own function, then back to the run (or, once
 /// deleted, to its unit). The action is named first (404 for any other
 /// name), then the form's CSRF token is checked, then the action's role.
@@ -444,6 +476,9 @@ pub async fn action(
     match action {
         RunAction::Diagnose => {
             queue_diagnosis(&st, run.id).await?;
+        }
+        RunAction::Adopt => {
+            adopt_latest_diagnosis(&st, run.id, &session.auth.token_id).await?;
         }
         RunAction::Calibrate => {
             queue_recalibration(&st, run.id).await?;
