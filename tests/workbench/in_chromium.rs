@@ -140,7 +140,12 @@ async fn the_workbench_in_chromium() {
         .await
         .is_none());
     assert_eq!(b.find_all("table#parameters tbody tr").await.len(), 24);
-    assert_eq!(b.find_all("#convergence svg").await.len(), 7);
+    // Per family, the estimate and its σ on a log axis.
+    assert_eq!(
+        b.find_all("#convergence figure.estimate svg").await.len(),
+        7
+    );
+    assert_eq!(b.find_all("#convergence figure.sigma svg").await.len(), 7);
     assert!(b.find("#verdict").await.text().await.contains("accepted"));
     shoot(&b, "run").await;
 
