@@ -198,9 +198,10 @@ async fn the_workbench_in_chromium() {
     let facts = b.find("#certificate-facts").await.text().await;
     assert!(facts.contains("RLG-A") && facts.contains("NAV-1") && facts.contains("sinscal "));
     visit(&b, &origin, &format!("/runs/{run_id}/noise"), "noise").await;
+    // One chart per sensor axis.
     assert_eq!(
         b.find_all("#gyro-allan svg, #accel-allan svg").await.len(),
-        2
+        6
     );
     assert_eq!(b.find_all("table#gyro-noise tr").await.len(), 4);
 
