@@ -140,7 +140,12 @@ async fn the_workbench_in_chromium() {
         .await
         .is_none());
     assert_eq!(b.find_all("table#parameters tbody tr").await.len(), 24);
-    assert_eq!(b.find_all("#convergence svg").await.len(), 7);
+    // Per family, the estimate and its σ on a log axis.
+    assert_eq!(
+        b.find_all("#convergence figure.estimate svg").await.len(),
+        7
+    );
+    assert_eq!(b.find_all("#convergence figure.sigma svg").await.len(), 7);
     assert!(b.find("#verdict").await.text().await.contains("accepted"));
     shoot(&b, "run").await;
 
@@ -193,9 +198,10 @@ async fn the_workbench_in_chromium() {
     let facts = b.find("#certificate-facts").await.text().await;
     assert!(facts.contains("RLG-A") && facts.contains("NAV-1") && facts.contains("sinscal "));
     visit(&b, &origin, &format!("/runs/{run_id}/noise"), "noise").await;
+    // One chart per sensor axis.
     assert_eq!(
         b.find_all("#gyro-allan svg, #accel-allan svg").await.len(),
-        2
+        6
     );
     assert_eq!(b.find_all("table#gyro-noise tr").await.len(), 4);
 

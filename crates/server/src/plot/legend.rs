@@ -2,7 +2,9 @@
 //! under the plot, so that it never hides data and its height is known
 //! before the plot is laid out.
 
-use super::series::{BAND_OPACITY, DASHES, ZONE_OPACITY};
+use std::borrow::Cow;
+
+use super::series::{BAND_OPACITY, DASHES, DOTS, ZONE_OPACITY};
 use super::svg::{attr, attr_str, escape_into, num, rect_open};
 use super::Style;
 
@@ -27,11 +29,14 @@ pub(super) fn text_width(chars: usize, font: f64) -> f64 {
 pub(super) enum Swatch {
     Series(Style),
     Band,
+    /// A band off the y range: an outline, since nothing on the plot has
+    /// its fill.
+    BandOffScale,
 }
 
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct Item<'a> {
-    pub name: &'a str,
+    pub name: Cow<'a, str>,
     pub colour: &'a str,
     pub swatch: Swatch,
 }
@@ -101,7 +106,7 @@ impl<'a> Legend<'a> {
                     escape_into(out, &item.name[..cut]);
                     out.push('…');
                 }
-                None => escape_into(out, item.name),
+                None => escape_into(out, &item.name),
             }
             out.push_str("</text>\n");
         }
@@ -143,9 +148,18 @@ fn swatch(out: &mut String, item: &Item, x: f64, cy: f64) {
             attr_str(out, "fill-opacity", ZONE_OPACITY);
             out.push_str("/>\n");
         }
+        Swatch::BandOffScale => {
+            rect_open(out, x, cy - SWATCH_H / 2.0, SWATCH_W, SWATCH_H);
+            out.push_str(" fill=\"none\"");
+            attr_str(out, "stroke", item.colour);
+            out.push_str(" stroke-dasharray=\"3 2\"/>\n");
+        }
         Swatch::Series(Style::Line) => stroke(out, ""),
         Swatch::Series(Style::Dashed) => {
             stroke(out, &format!(" stroke-dasharray=\"{DASHES}\""));
+        }
+        Swatch::Series(Style::Guide) => {
+            stroke(out, &format!(" stroke-dasharray=\"{DOTS}\""));
         }
         Swatch::Series(Style::LineWithBand) => {
             bar(out);
@@ -175,7 +189,7 @@ mod tests {
 
     fn item(name: &str) -> Item<'_> {
         Item {
-            name,
+            name: name.into(),
             colour: "#4e79a7",
             swatch: Swatch::Series(Style::Line),
         }
@@ -198,7 +212,7 @@ mod tests {
         let items = vec![
             item("gyro <x> & bias"),
             Item {
-                name: "±limit",
+                name: "±limit".into(),
                 colour: "#bab0ac",
                 swatch: Swatch::Band,
             },

@@ -9,13 +9,17 @@
 //! The module knows nothing of calibration: callers turn their results into
 //! [`Series`] of [`Point`]s and get text back. It does no I/O.
 //!
-//! Files: `scale` (ranges, linear and log ticks, mapping to pixels),
-//! `format` (tick labels), `time` (date ticks), `svg` (escaping and the
-//! number writer), `series` (drawing the data), `legend`, `render` (the
-//! layout and the order of the layers).
+//! Files: `range` (which values set the axes' ranges, and which bands
+//! lie off scale), `clip` (lines and markers held to the plot), `scale`
+//! (extents, linear and log ticks, mapping to pixels), `format` (tick
+//! labels), `time` (date ticks), `svg` (escaping and the number writer),
+//! `series` (drawing the data), `legend`, `render` (the layout and the
+//! order of the layers).
 
+mod clip;
 mod format;
 mod legend;
+mod range;
 mod render;
 mod scale;
 mod series;
@@ -58,6 +62,11 @@ pub enum Style {
     MarkersWithErrorBars,
     /// A dashed line, for fitted slopes drawn over measurements.
     Dashed,
+    /// A thin dotted line for a reference drawn over the data (one term of
+    /// a fitted model, an asymptote): it is drawn where it crosses the
+    /// range the other series set and never widens an axis, so a line
+    /// running on for decades does not squash the data into a corner.
+    Guide,
 }
 
 impl Style {
@@ -65,6 +74,11 @@ impl Style {
     /// has to make room for it).
     fn draws_sigma(self) -> bool {
         matches!(self, Style::LineWithBand | Style::MarkersWithErrorBars)
+    }
+
+    /// Whether the series' points count in the axes' ranges.
+    fn sets_range(self) -> bool {
+        self != Style::Guide
     }
 }
 
@@ -114,14 +128,17 @@ impl Series {
     }
 }
 
-/// A horizontal band drawn behind the data, e.g. a tolerance ±limit.
-/// An infinite edge reaches the edge of the plot ("below 5" is
-/// `lo: -inf, hi: 5`); a NaN edge leaves the band out.
+/// A horizontal band drawn behind the data, e.g. a tolerance ±limit, its
+/// finite edges drawn as lines. An infinite edge reaches the edge of the
+/// plot ("below 5" is `lo: -inf, hi: 5`); a NaN edge leaves the band out.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Band {
     pub name: String,
     pub lo: f64,
     pub hi: f64,
+    /// Any SVG paint; `None` takes a colour from the end of [`PALETTE`]
+    /// by the band's position.
+    pub colour: Option<String>,
 }
 
 impl Band {
@@ -130,8 +147,27 @@ impl Band {
             name: name.into(),
             lo,
             hi,
+            colour: None,
         }
     }
+}
+
+/// What the y axis is scaled to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum YRange {
+    /// Every series (with the σ it draws) and every band's edges.
+    All,
+    /// The series and their σ: a band's edge is brought into view only
+    /// while the data still fill a third of the axis, so a tolerance a
+    /// hundred times wider than the scatter does not flatten it into one
+    /// row. Bands are held to the range; a band none of whose finite
+    /// edges is in view is not drawn, and its legend entry ends in
+    /// "(off scale)".
+    Data,
+    /// The span lo..hi taken as the data (padded, ticked the same way):
+    /// what lies outside is cut at the frame, bands as under `Data`.
+    /// For a history whose first swings would dwarf where it settles.
+    Fixed { lo: f64, hi: f64 },
 }
 
 /// The Tableau 10 colours, in their own order: it was chosen so that
@@ -162,6 +198,7 @@ pub struct Chart {
     pub height: f64,
     pub series: Vec<Series>,
     pub bands: Vec<Band>,
+    pub y_range: YRange,
 }
 
 impl Chart {
@@ -185,7 +222,19 @@ impl Chart {
             height: Chart::DEFAULT_HEIGHT,
             series: Vec::new(),
             bands: Vec::new(),
+            y_range: YRange::All,
         }
+    }
+
+    /// The y values at the bottom and top of the plot as drawn (padding
+    /// included), or None when nothing can be drawn: what a caller checks
+    /// its scaling against.
+    pub fn shown_y_range(&self) -> Option<(f64, f64)> {
+        let y = range::ranges(self)?.y;
+        Some(match self.y_scale {
+            Scale::Linear => (y.lo, y.hi),
+            Scale::Log10 => (10f64.powf(y.lo), 10f64.powf(y.hi)),
+        })
     }
 
     /// A complete `<svg>` element, to be placed inline in an HTML page.
@@ -210,8 +259,11 @@ impl Chart {
     }
 
     /// The colour band `i` is drawn in.
-    fn band_colour(i: usize) -> &'static str {
-        PALETTE[PALETTE.len() - 1 - i % PALETTE.len()]
+    fn band_colour(&self, i: usize) -> &str {
+        match &self.bands[i].colour {
+            Some(c) => c,
+            None => PALETTE[PALETTE.len() - 1 - i % PALETTE.len()],
+        }
     }
 }
 

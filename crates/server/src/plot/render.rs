@@ -2,7 +2,10 @@
 //! bands, series, then frame, ticks and text on top, so that data never
 //! hides an axis and a band never hides data.
 
+use std::borrow::Cow;
+
 use super::legend::{text_width, Item, Legend, Swatch};
+use super::range::{ranges, x_scale, Ranges};
 use super::scale::{linear_ticks, log_ticks, Axis, Extent, Ticks};
 use super::series::{draw, zone, Plot};
 use super::svg::{attr, escape_into, num, text};
@@ -53,6 +56,8 @@ pub(super) struct Layout<'a> {
     pub frame: Frame,
     /// None when there is nothing to draw.
     axes: Option<Axes>,
+    /// Per band: off the y range, so not drawn.
+    off_scale: Vec<bool>,
     legend: Legend<'a>,
 }
 
@@ -62,53 +67,6 @@ fn sane(v: f64, default: f64, min: f64) -> f64 {
     } else {
         default
     }
-}
-
-/// The x and y ranges of what will be drawn, padded; None when no point
-/// can be drawn.
-fn ranges(chart: &Chart, xs: Scale) -> Option<(Extent, Extent)> {
-    let ys = chart.y_scale;
-    let (mut x, mut y) = (Extent::empty(), Extent::empty());
-    for s in &chart.series {
-        for p in &s.points {
-            if !(xs.admits(p.x) && ys.admits(p.y)) {
-                continue;
-            }
-            x.add(xs.space(p.x));
-            y.add(ys.space(p.y));
-            let sigma = p.sigma.filter(|s| s.is_finite() && *s > 0.0);
-            if let (true, Some(sg)) = (s.style.draws_sigma(), sigma) {
-                for v in [p.y + sg, p.y - sg] {
-                    if ys.admits(v) {
-                        y.add(ys.space(v));
-                    }
-                }
-            }
-        }
-    }
-    if x.is_empty() {
-        return None;
-    }
-    for b in chart
-        .bands
-        .iter()
-        .filter(|b| !b.lo.is_nan() && !b.hi.is_nan())
-    {
-        for v in [b.lo, b.hi] {
-            if ys.admits(v) {
-                y.add(ys.space(v));
-            }
-        }
-    }
-    let half = |s: Scale| match s {
-        Scale::Linear => None,
-        Scale::Log10 => Some(0.5),
-    };
-    let x_half = match chart.x_axis {
-        XAxis::TimeMs => Some(60_000.0),
-        XAxis::Number => half(xs),
-    };
-    Some((x.padded(x_half), y.padded(half(ys))))
 }
 
 fn ticks(scale: Scale, time: bool, e: Extent, target: usize) -> Ticks {
@@ -144,17 +102,29 @@ impl<'a> Layout<'a> {
         let width = sane(chart.width, Chart::DEFAULT_WIDTH, 160.0);
         let mut height = sane(chart.height, Chart::DEFAULT_HEIGHT, 120.0);
         let time = chart.x_axis == XAxis::TimeMs;
-        let xs = if time { Scale::Linear } else { chart.x_scale };
+        let xs = x_scale(chart);
+        let ranges = ranges(chart);
+        let off_scale = ranges
+            .as_ref()
+            .map_or_else(|| vec![false; chart.bands.len()], |r| r.off_scale.clone());
 
         let series = chart.series.iter().enumerate().map(|(i, s)| Item {
-            name: &s.name,
+            name: Cow::Borrowed(s.name.as_str()),
             colour: chart.series_colour(i),
             swatch: Swatch::Series(s.style),
         });
-        let bands = chart.bands.iter().enumerate().map(|(i, b)| Item {
-            name: &b.name,
-            colour: Chart::band_colour(i),
-            swatch: Swatch::Band,
+        let bands = chart.bands.iter().enumerate().map(|(i, b)| {
+            let (name, swatch) = if off_scale[i] {
+                let name = format!("{} (off scale)", b.name);
+                (Cow::Owned(name), Swatch::BandOffScale)
+            } else {
+                (Cow::Borrowed(b.name.as_str()), Swatch::Band)
+            };
+            Item {
+                name,
+                colour: chart.band_colour(i),
+                swatch,
+            }
         });
         let legend = Legend::layout(series.chain(bands).collect(), width - 2.0 * MARGIN);
 
@@ -185,7 +155,7 @@ impl<'a> Layout<'a> {
             LABEL_FONT + 8.0
         };
 
-        let Some((xe, ye)) = ranges(chart, xs) else {
+        let Some(Ranges { x: xe, y: ye, .. }) = ranges else {
             let frame = Frame {
                 left: MARGIN + y_title + 10.0,
                 top,
@@ -197,6 +167,7 @@ impl<'a> Layout<'a> {
                 height,
                 frame,
                 axes: None,
+                off_scale,
                 legend,
             };
         };
@@ -256,6 +227,7 @@ impl<'a> Layout<'a> {
                 x_ticks,
                 y_ticks,
             }),
+            off_scale,
             legend,
         }
     }
@@ -288,7 +260,7 @@ pub(super) fn write(chart: &Chart, out: &mut String) {
     out.push_str("</title>\n<rect width=\"100%\" height=\"100%\" fill=\"#fff\"/>\n");
 
     match &layout.axes {
-        Some(axes) => data_layers(out, chart, &f, axes),
+        Some(axes) => data_layers(out, chart, &f, axes, &layout.off_scale),
         None => {
             frame_rect(out, &f);
             text(
@@ -388,7 +360,7 @@ where
     }
 }
 
-fn data_layers(out: &mut String, chart: &Chart, f: &Frame, a: &Axes) {
+fn data_layers(out: &mut String, chart: &Chart, f: &Frame, a: &Axes, off_scale: &[bool]) {
     grid(
         out,
         f,
@@ -405,8 +377,8 @@ fn data_layers(out: &mut String, chart: &Chart, f: &Frame, a: &Axes) {
     );
     let plot = Plot { x: &a.x, y: &a.y };
     for (i, b) in chart.bands.iter().enumerate() {
-        if !b.lo.is_nan() && !b.hi.is_nan() {
-            zone(out, &plot, b, Chart::band_colour(i));
+        if !b.lo.is_nan() && !b.hi.is_nan() && !off_scale[i] {
+            zone(out, &plot, b, chart.band_colour(i));
         }
     }
     for (i, s) in chart.series.iter().enumerate() {
@@ -450,4 +422,42 @@ fn data_layers(out: &mut String, chart: &Chart, f: &Frame, a: &Axes) {
         text(out, x, a.y.at(t.at) + 0.35 * TICK_FONT, "", &t.label);
     }
     out.push_str("</g>\n");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::plot::{Point, Series, Style};
+
+    /// A σ falling from 1 to 2e-4 on a log axis: a major tick at every
+    /// decade, labelled, a decade's height apart, the data where its
+    /// value says.
+    #[test]
+    fn log_y_ticks_sit_at_decades_a_decade_apart() {
+        let mut c = Chart::new("σ", "time (min)", "1σ (deg/h)");
+        c.y_scale = Scale::Log10;
+        c.series.push(Series::new(
+            "s",
+            Style::Line,
+            vec![Point::new(0.0, 1.0), Point::new(10.0, 2e-4)],
+        ));
+        let layout = Layout::of(&c);
+        let a = layout.axes.as_ref().unwrap();
+        let labels: Vec<&str> = a.y_ticks.major.iter().map(|t| t.label.as_str()).collect();
+        assert_eq!(labels, ["1e-3", "0.01", "0.1", "1"]);
+        let px: Vec<f64> = a.y_ticks.major.iter().map(|t| a.y.at(t.at)).collect();
+        let decade = px[0] - px[1];
+        assert!(decade > 30.0, "{px:?}");
+        for w in px.windows(2) {
+            assert!((w[0] - w[1] - decade).abs() < 1e-9, "{px:?}");
+        }
+        // 2e-4 lies log10(5) of a decade below the 1e-3 tick, 1 on its tick.
+        let below = a.y.px(2e-4) - px[0];
+        assert!((below - 5f64.log10() * decade).abs() < 1e-9);
+        assert!((a.y.px(1.0) - px[3]).abs() < 1e-9);
+        // The 2…9 gridlines of each decade, and the data inside the frame.
+        assert!(a.y_ticks.minor.len() >= 3 * 8, "{:?}", a.y_ticks.minor);
+        let f = layout.frame;
+        assert!(a.y.px(2e-4) < f.bottom && a.y.px(1.0) > f.top);
+    }
 }

@@ -31,7 +31,7 @@ pub(super) struct Extent {
 
 /// Padding on each side of the data, as a fraction of its span: enough that
 /// a point on the edge is not drawn over the frame.
-const PAD: f64 = 0.04;
+pub(super) const PAD: f64 = 0.04;
 
 impl Extent {
     pub fn empty() -> Extent {
@@ -206,69 +206,31 @@ pub(super) fn linear_ticks(lo: f64, hi: f64, target: usize) -> Vec<Tick> {
         .collect()
 }
 
-/// Ticks of a log axis over [lo, hi] (log10 space). Decades when two or
+/// Ticks of a log axis over [lo, hi] (log10 space). Decades when three or
 /// more fall in the range (every n-th one when there are more than
 /// `target`, with the 2…9 gridlines between them when every decade is
-/// shown); else 1, 2 and 5 of each decade; else, for a range within a
-/// factor of about 2, the linear ticks of the values.
+/// shown); with fewer, 1, 2 and 5 of each decade, two decade labels
+/// alone leaving a value hard to read off, unless they would crowd the
+/// axis; else, for a range within a factor of about 2, the linear ticks of
+/// the values.
 pub(super) fn log_ticks(lo: f64, hi: f64, target: usize) -> Ticks {
     if !(lo.is_finite() && hi.is_finite() && hi > lo) {
         return Ticks::default();
     }
     let k0 = (lo - 1e-9).ceil() as i32;
     let k1 = (hi + 1e-9).floor() as i32;
-    let inside = |s: f64| s >= lo - 1e-9 && s <= hi + 1e-9;
     if k1 > k0 {
-        let decades = (k1 - k0 + 1) as usize;
-        let stride = decades.div_ceil(target.max(1)).max(1) as i32;
-        // Multiples of the stride, so that the labels are round
-        // ("1e-6, 1e-3, 1, 1e3"), unless that leaves fewer than two.
-        let aligned = (k0..=k1).filter(|k| k.rem_euclid(stride) == 0).count();
-        let start = if aligned >= 2 {
-            k0 + (-k0).rem_euclid(stride)
-        } else {
-            k0
-        };
-        let major = (start..=k1)
-            .step_by(stride as usize)
-            .map(|k| Tick {
-                at: f64::from(k),
-                label: format::log_label(1, k),
-            })
-            .collect();
-        let mut minor = Vec::new();
-        if stride == 1 {
-            for k in (k0 - 1)..=k1 {
-                for m in 2..=9 {
-                    let s = f64::from(k) + f64::from(m).log10();
-                    if inside(s) {
-                        minor.push(s);
-                    }
-                }
+        if k1 - k0 < 2 {
+            let t = one_two_five(lo, hi);
+            if t.major.len() <= target + 2 {
+                return t;
             }
         }
-        return Ticks { major, minor };
+        return decade_ticks(lo, hi, (k0, k1), target);
     }
-    let mut major = Vec::new();
-    let mut minor = Vec::new();
-    for k in (lo.floor() as i32)..=(hi.ceil() as i32) {
-        for m in 1..=9 {
-            let s = f64::from(k) + f64::from(m).log10();
-            if !inside(s) {
-                continue;
-            }
-            if matches!(m, 1 | 2 | 5) {
-                major.push(Tick {
-                    at: s,
-                    label: format::log_label(i64::from(m), k),
-                });
-            } else {
-                minor.push(s);
-            }
-        }
-    }
-    if major.len() >= 2 {
-        return Ticks { major, minor };
+    let t = one_two_five(lo, hi);
+    if t.major.len() >= 2 {
+        return t;
     }
     let (a, b) = (10f64.powf(lo), 10f64.powf(hi));
     let major = linear_ticks(a, b, target)
@@ -283,6 +245,68 @@ pub(super) fn log_ticks(lo: f64, hi: f64, target: usize) -> Ticks {
         major,
         minor: Vec::new(),
     }
+}
+
+fn inside(lo: f64, hi: f64, s: f64) -> bool {
+    s >= lo - 1e-9 && s <= hi + 1e-9
+}
+
+/// The decades k0..=k1 in [lo, hi], every n-th one when there are more
+/// than `target`.
+fn decade_ticks(lo: f64, hi: f64, (k0, k1): (i32, i32), target: usize) -> Ticks {
+    let decades = (k1 - k0 + 1) as usize;
+    let stride = decades.div_ceil(target.max(1)).max(1) as i32;
+    // Multiples of the stride, so that the labels are round
+    // ("1e-6, 1e-3, 1, 1e3"), unless that leaves fewer than two.
+    let aligned = (k0..=k1).filter(|k| k.rem_euclid(stride) == 0).count();
+    let start = if aligned >= 2 {
+        k0 + (-k0).rem_euclid(stride)
+    } else {
+        k0
+    };
+    let major = (start..=k1)
+        .step_by(stride as usize)
+        .map(|k| Tick {
+            at: f64::from(k),
+            label: format::log_label(1, k),
+        })
+        .collect();
+    let mut minor = Vec::new();
+    if stride == 1 {
+        for k in (k0 - 1)..=k1 {
+            for m in 2..=9 {
+                let s = f64::from(k) + f64::from(m).log10();
+                if inside(lo, hi, s) {
+                    minor.push(s);
+                }
+            }
+        }
+    }
+    Ticks { major, minor }
+}
+
+/// 1, 2 and 5 of each decade in [lo, hi] labelled, the other digits as
+/// gridlines.
+fn one_two_five(lo: f64, hi: f64) -> Ticks {
+    let mut major = Vec::new();
+    let mut minor = Vec::new();
+    for k in (lo.floor() as i32)..=(hi.ceil() as i32) {
+        for m in 1..=9 {
+            let s = f64::from(k) + f64::from(m).log10();
+            if !inside(lo, hi, s) {
+                continue;
+            }
+            if matches!(m, 1 | 2 | 5) {
+                major.push(Tick {
+                    at: s,
+                    label: format::log_label(i64::from(m), k),
+                });
+            } else {
+                minor.push(s);
+            }
+        }
+    }
+    Ticks { major, minor }
 }
 
 #[cfg(test)]
@@ -343,6 +367,17 @@ mod tests {
         assert_eq!(t.minor.len(), 6 * 8 + 2);
         assert!((t.minor[0] - 8f64.log10() + 4.0).abs() < 1e-12);
         assert!((t.minor[2] - 2f64.log10() + 3.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn under_three_decades_1_2_and_5_are_labelled() {
+        // A filter's σ from 0.2 down to 0.007 deg/h.
+        let t = log_ticks(0.007f64.log10(), 0.2f64.log10(), 5);
+        assert_eq!(labels(&t.major), ["0.01", "0.02", "0.05", "0.1", "0.2"]);
+        assert!((t.major[2].at - 0.05f64.log10()).abs() < 1e-12);
+        // Too many for a short axis: decades only.
+        let t = log_ticks(0.0011f64.log10(), 0.95f64.log10(), 2);
+        assert_eq!(labels(&t.major), ["0.01", "0.1"]);
     }
 
     #[test]

@@ -20,6 +20,17 @@ pub fn sig(v: f64, digits: usize) -> String {
     format!("{v:.decimals$}")
 }
 
+/// `v` to the second significant digit of `resolution` (its σ, or the
+/// scatter it is read against): the digits that mean something, at least
+/// two, at most nine.
+pub fn sig_to(v: f64, resolution: f64) -> String {
+    if !(v.is_finite() && v != 0.0 && resolution.is_finite() && resolution > 0.0) {
+        return sig(v, 3);
+    }
+    let digits = (v.abs().log10().floor() - resolution.log10().floor()) as i64 + 2;
+    sig(v, digits.clamp(2, 9) as usize)
+}
+
 /// Unix ms as `2026-12-02 14:05 UTC`.
 pub fn time(ms: i64) -> String {
     chrono::DateTime::from_timestamp_millis(ms)
@@ -61,6 +72,15 @@ mod tests {
         assert_eq!(sig(123456.0, 3), "123456");
         assert_eq!(sig(2.5e-7, 2), "2.5e-7");
         assert_eq!(sig(f64::NAN, 3), "—");
+    }
+
+    #[test]
+    fn a_value_is_shown_to_its_resolution() {
+        assert_eq!(sig_to(0.06214, 0.0085), "0.0621");
+        assert_eq!(sig_to(499.031, 0.69), "499.03");
+        assert_eq!(sig_to(0.0005, 0.00079), "0.00050");
+        assert_eq!(sig_to(0.0, 0.1), "0");
+        assert_eq!(sig_to(2.5, 0.0), "2.50");
     }
 
     #[test]

@@ -19,6 +19,7 @@ mod error;
 mod format;
 mod layout;
 mod noise;
+mod noise_charts;
 mod run;
 mod run_plots;
 mod session;

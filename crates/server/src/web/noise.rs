@@ -1,90 +1,47 @@
-//! A run's noise page: the Allan deviation of every gyro and accelerometer
-//! axis over the run's dwells (or the whole of a static run), log-log, with
-//! the fitted model, and the identified coefficients.
+//! A run's noise page: the identified coefficients, and the Allan deviation
+//! of every gyro and accelerometer axis over the run's dwells (or the
+//! whole of a static run), log-log, with the fitted model and its terms
+//! (`noise_charts`).
 
 use axum::extract::{Path, State};
 use axum::response::Html;
-use maud::{html, Markup, PreEscaped};
+use maud::{html, Markup};
 
 use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
+use super::noise_charts::allan_charts;
 use super::run::readable_run;
 use crate::api::auth::roles;
 use crate::api::noise::analyse_noise;
 use crate::api::AppState;
-use crate::plot::{Chart, Point, Scale, Series, Style};
 use sinscal_core::noise::report::Span;
 use sinscal_core::noise::{Term, TermStatus};
 
-/// One colour per axis, shared by an axis's measured and fitted curves.
-const AXIS_COLOURS: [&str; 3] = ["#4e79a7", "#f28e2b", "#e15759"];
-
-/// Points of each fitted curve, log-spaced over the measured τ.
-const MODEL_POINTS: usize = 60;
-
-fn log_spaced(lo: f64, hi: f64) -> impl Iterator<Item = f64> {
-    let (a, b) = (lo.ln(), hi.ln());
-    (0..MODEL_POINTS).map(move |i| (a + (b - a) * i as f64 / (MODEL_POINTS - 1) as f64).exp())
-}
-
-/// One sensor kind's chart: each axis's measured deviation (markers) and
-/// its fitted model (dashed, `fit(axis, τ)`), in the axis's colour.
-fn allan_chart<'a>(
-    (title, y_label, sensor): (&str, &str, &str),
-    tau: &[f64],
-    measured: impl Iterator<Item = &'a [f64]>,
-    fit: impl Fn(usize, f64) -> f64,
-) -> Chart {
-    let mut c = Chart::new(title, "averaging time τ (s)", y_label);
-    c.x_scale = Scale::Log10;
-    c.y_scale = Scale::Log10;
-    c.width = 640.0;
-    c.height = 380.0;
-    let (lo, hi) = (
-        tau.first().copied().unwrap_or(1.0),
-        tau.last().copied().unwrap_or(1.0),
-    );
-    for (k, adev) in measured.enumerate() {
-        let axis = ["x", "y", "z"][k];
-        let mut data = Series::new(
-            format!("{sensor} {axis}"),
-            Style::Markers,
-            tau.iter()
-                .zip(adev)
-                .map(|(&x, &y)| Point::new(x, y))
-                .collect(),
-        );
-        data.colour = Some(AXIS_COLOURS[k].into());
-        let mut model = Series::new(
-            format!("fit {axis}"),
-            Style::Dashed,
-            log_spaced(lo, hi)
-                .map(|t| Point::new(t, fit(k, t)))
-                .collect(),
-        );
-        model.colour = Some(AXIS_COLOURS[k].into());
-        c.series.push(data);
-        c.series.push(model);
-    }
-    c
-}
-
-/// A term's cell: its value and σ, its bound, or its held value; the
-/// whole sentence on hover.
+/// A term's cell: its value and σ, "not resolved" with the bound the
+/// data set, or its held value; the whole sentence on hover. A figure the
+/// report lacks is said to be missing, never shown as 0.
 fn term(t: &Term) -> Markup {
     let mark = if t.spoiled_by_departure { " *" } else { "" };
-    let shown = match t.status {
-        TermStatus::Resolved => format!(
-            "{} ± {}",
-            format::sig(t.value.unwrap_or(0.0), 3),
-            format::sig(t.sigma.unwrap_or(0.0), 2)
-        ),
-        TermStatus::NotResolved => format!("< {}", format::sig(t.upper_bound.unwrap_or(0.0), 2)),
-        TermStatus::Fixed => format!("= {}", format::sig(t.value.unwrap_or(0.0), 3)),
+    let shown = match (t.status, t.value, t.sigma, t.upper_bound) {
+        (TermStatus::Resolved, Some(v), Some(s), _) => {
+            format!("{} ± {}", format::sig(v, 3), format::sig(s, 2))
+        }
+        (TermStatus::Resolved, Some(v), None, _) => format!("{} (σ not given)", format::sig(v, 3)),
+        (TermStatus::NotResolved, _, _, Some(b)) => {
+            format!("not resolved (< {})", format::sig(b, 2))
+        }
+        (TermStatus::Fixed, Some(v), _, _) => format!("{} (held)", format::sig(v, 3)),
+        (TermStatus::NotResolved, _, _, None) => "not resolved".to_string(),
+        _ => "—".to_string(),
     };
-    html! { td.num title=(t.text) { (shown) (mark) } }
+    let class = if t.status == TermStatus::NotResolved {
+        "num muted"
+    } else {
+        "num"
+    };
+    html! { td class=(class) title=(t.text) { (shown) (mark) } }
 }
 
 pub async fn page(
@@ -94,27 +51,7 @@ pub async fn page(
 ) -> Result<Html<String>, PageError> {
     let run = readable_run(&st, &session, id).await?;
     let report = analyse_noise(&st, run.id).await?;
-    let tau = &report.curves.tau_s;
-    let gyro = allan_chart(
-        ("Gyro Allan deviation", "σ(τ) (deg/h)", "gyro"),
-        tau,
-        report
-            .curves
-            .gyro
-            .iter()
-            .map(|(_, c)| c.adev_deg_h.as_slice()),
-        |k, t| [&report.gyro.x, &report.gyro.y, &report.gyro.z][k].model_adev_deg_h(t),
-    );
-    let accel = allan_chart(
-        ("Accelerometer Allan deviation", "σ(τ) (µg)", "accel"),
-        tau,
-        report
-            .curves
-            .accel
-            .iter()
-            .map(|(_, c)| c.adev_ug.as_slice()),
-        |k, t| [&report.accel.x, &report.accel.y, &report.accel.z][k].model_adev_ug(t),
-    );
+    let (gyro, accel) = allan_charts(&report);
     let over = &report.computed_over;
     let body = html! {
         h1 { "Noise of run " a href={ "/runs/" (run.id) } { code { (format::short_id(run.id)) } } " (unit " (run.unit_serial) ")" }
@@ -128,7 +65,7 @@ pub async fn page(
             h2 { "Where the curve departs from the noise model" }
             ul #noise-warnings { @for w in &report.warnings { li { (w) } } }
         }
-        p.muted { "v ± σ: read from the curve (1-σ); < b: not resolved, 95 % upper bound over the τ the data covers; = v: held at q/√12 of the quantum found in the data; * read where the curve departs from the model." }
+        p.muted { "v ± σ: read from the curve (1-σ); not resolved (< b): the curve does not show the term, b its 95 % upper bound over the τ the data covers; v (held): held at q/√12 of the quantum found in the data; * read where the curve departs from the model. On the charts, each measured point carries its 1σ, the dashed curve is the fitted model and each dotted line one term the fit resolved or held (quantization slope −1, white noise −½, bias instability flat at 0.664·B, random walk +½)." }
         h2 { "Gyros" }
         table #gyro-noise {
             tr { th { "Axis" } th.num { "ARW (deg/√h)" } th.num { "Bias instability (deg/h)" } th.num { "Rate random walk (deg/h/√h)" } th.num { "Quantization (arcsec)" } th.num { "Quantum (arcsec)" } th.num { "Fit rms z" } }
@@ -138,7 +75,7 @@ pub async fn page(
                      td.num { (n.quantum_arcsec.map_or("—".into(), |q| format::sig(q, 4))) } td.num { (format::sig(n.fit_rms_z, 2)) } }
             }
         }
-        figure #gyro-allan { (PreEscaped(gyro.to_svg())) }
+        div.charts.thirds #gyro-allan { (gyro) }
         h2 { "Accelerometers" }
         table #accel-noise {
             tr { th { "Axis" } th.num { "VRW (µg/√Hz)" } th.num { "Bias instability (µg)" } th.num { "Acceleration random walk (µg/√h)" } th.num { "Quantization (mm/s)" } th.num { "Quantum (m/s)" } th.num { "Fit rms z" } }
@@ -148,9 +85,55 @@ pub async fn page(
                      td.num { (n.quantum_mps.map_or("—".into(), |q| format::sig(q, 4))) } td.num { (format::sig(n.fit_rms_z, 2)) } }
             }
         }
-        figure #accel-allan { (PreEscaped(accel.to_svg())) }
+        div.charts.thirds #accel-allan { (accel) }
     };
     Ok(Html(
         layout::page("Noise", Some(&session), body).into_string(),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sinscal_core::noise::fit::Estimate;
+    use sinscal_core::noise::term::Reach;
+
+    fn cell(e: Estimate) -> String {
+        let t = Term::from_estimate(
+            &e,
+            (1.0, "deg/h"),
+            [0.1, 10.0],
+            [0.1, 10.0],
+            Reach::Long,
+            false,
+        );
+        term(&t).into_string()
+    }
+
+    #[test]
+    fn a_term_shows_its_sigma_or_says_it_is_not_resolved() {
+        let resolved = cell(Estimate::Resolved {
+            value: 0.012,
+            sigma: 0.0011,
+        });
+        assert!(resolved.contains(">0.0120 ± 0.0011</td>"), "{resolved}");
+        let bound = cell(Estimate::Bound { upper: 0.003 });
+        assert!(
+            bound.contains(">not resolved (&lt; 0.0030)</td>"),
+            "{bound}"
+        );
+        assert!(bound.contains("class=\"num muted\""), "{bound}");
+        let held = cell(Estimate::Fixed { value: 0.5 });
+        assert!(held.contains(">0.500 (held)</td>"), "{held}");
+        let mut t = Term::from_estimate(
+            &Estimate::Bound { upper: 1.0 },
+            (1.0, "x"),
+            [1.0; 2],
+            [1.0; 2],
+            Reach::Long,
+            false,
+        );
+        t.upper_bound = None;
+        assert!(term(&t).into_string().contains(">not resolved</td>"));
+    }
 }

@@ -97,8 +97,8 @@ pub async fn page(
         h2 { "Repeatability" }
         (repeatability_table(serial.as_str(), &runs, &spread, limits.as_ref(), all_columns))
         h2 { "Trends" }
-        p.muted { "Each run's estimate ± 1σ against the run's date; the band is the product type's limit on |value|." }
-        (trend_charts(&runs, limits.as_ref()))
+        p.muted { "Each run's estimate ± 1σ against the run's date, the runs' mean (line) and ± 1 standard deviation (grey band), and the product type's limits (repeatability in orange, |value| in red). The y axis is scaled to the runs; a limit beyond it is named \"off scale\" in the legend." }
+        (trend_charts(&runs, &spread, limits.as_ref()))
         @if let Some((model, soaks)) = &thermal {
             h2 { "Thermal model" }
             (thermal_section(model, soaks))
