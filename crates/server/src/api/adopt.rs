@@ -12,10 +12,9 @@ use serde::Serialize;
 
 use super::auth::{roles, Caller};
 use super::error::ApiError;
-use super::runs::{job_answer, latest_report};
-use super::upload::queue_full;
+use super::runs::{calibration_queued, job_answer, latest_report};
 use super::{parse_id, refuse_while_stopping, rfc3339, AppState};
-use crate::store::{Adoption, CalibrationRequeued, JobId, JobState, ResultVersion, RunId};
+use crate::store::{Adoption, JobId, JobState, ResultVersion, RunId};
 use sinscal_core::calib::ErrorModel;
 use sinscal_core::diagnose::DiagnoseReport;
 
@@ -54,23 +53,13 @@ pub(crate) async fn adopt_latest_diagnosis(
         diagnosis,
         by,
     };
-    match st
+    let requeued = st
         .store
         .adopt_model(id, adoption, st.config.max_attempts, st.config.max_queue)
-        .await?
-    {
-        CalibrationRequeued::Queued(job) => {
-            st.wake.notify_one();
-            tracing::info!(run = %id, %model, diagnosis = %diagnosis, "model adopted; calibration queued");
-            Ok(job)
-        }
-        CalibrationRequeued::Busy(job) => Err(ApiError::Conflict(format!(
-            "run {id}'s calibration job {} is {}: wait for it to settle first",
-            job.id, job.state
-        ))),
-        CalibrationRequeued::NoRun => Err(ApiError::NotFound(format!("no run {id}"))),
-        CalibrationRequeued::QueueFull => Err(queue_full()),
-    }
+        .await?;
+    let job = calibration_queued(st, id, requeued)?;
+    tracing::info!(run = %id, %model, diagnosis = %diagnosis, "model adopted; calibration queued");
+    Ok(job)
 }
 
 /// The latest diagnosis (its job, settled and succeeded) and the model it

@@ -320,14 +320,25 @@ pub(crate) async fn queue_diagnosis(st: &AppState, id: RunId) -> Result<QueuedJo
 /// Queues a run's calibration again.
 pub(crate) async fn queue_recalibration(st: &AppState, id: RunId) -> Result<JobRow, ApiError> {
     refuse_while_stopping(st)?;
-    match st
+    let requeued = st
         .store
         .requeue_calibration(id, st.config.max_attempts, st.config.max_queue)
-        .await?
-    {
+        .await?;
+    let job = calibration_queued(st, id, requeued)?;
+    tracing::info!(run = %id, job = %job.id, "calibration queued again");
+    Ok(job)
+}
+
+/// A run's calibration queued again (the workers woken), or why not: the
+/// answer of every action that calibrates a run again.
+pub(crate) fn calibration_queued(
+    st: &AppState,
+    id: RunId,
+    requeued: CalibrationRequeued,
+) -> Result<JobRow, ApiError> {
+    match requeued {
         CalibrationRequeued::Queued(job) => {
             st.wake.notify_one();
-            tracing::info!(run = %id, job = %job.id, "calibration queued again");
             Ok(job)
         }
         CalibrationRequeued::Busy(job) => Err(ApiError::Conflict(format!(
