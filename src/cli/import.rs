@@ -3,7 +3,9 @@
 use std::path::PathBuf;
 
 use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::imu_tk::{import_imu_tk, ImuTkImport, NominalTriad};
 use sinscal_core::io::psins::import_psins;
+use sinscal_core::nav::Site;
 
 #[derive(clap::Subcommand)]
 pub enum ImportCommand {
@@ -11,6 +13,101 @@ pub enum ImportCommand {
     /// whole counts a record and an optional time dither in µs): the run's
     /// increments (rad, m/s) and run.json with its site, g and rate.
     Psins(PsinsArgs),
+    /// An imu_tk recording (two text files of `t x y z`, accelerometer and
+    /// gyro, raw samples at the same stamps): run.csv of the counts as
+    /// recorded and run.json with the datasheet's nominal conversion.
+    ImuTk(ImuTkArgs),
+}
+
+#[derive(clap::Args)]
+pub struct ImuTkArgs {
+    /// The accelerometer file (e.g. imu_tk's xsens_acc.mat).
+    #[arg(long)]
+    pub accel: PathBuf,
+    /// The gyro file.
+    #[arg(long)]
+    pub gyro: PathBuf,
+    /// The folder to write run.csv and run.json into.
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long)]
+    pub unit_serial: String,
+    #[arg(long, allow_hyphen_values = true)]
+    pub latitude: f64,
+    #[arg(long, allow_hyphen_values = true)]
+    pub longitude: f64,
+    #[arg(long, allow_hyphen_values = true)]
+    pub height: f64,
+    /// Local gravity, m/s² (default: SPEC §1's model at the site).
+    #[arg(long)]
+    pub gravity: Option<f64>,
+    /// The accelerometer counts that read zero, x,y,z.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        required = true,
+        allow_hyphen_values = true
+    )]
+    pub accel_offset: Vec<f64>,
+    /// Accelerometer counts per m/s², x,y,z.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        required = true,
+        allow_hyphen_values = true
+    )]
+    pub accel_scale: Vec<f64>,
+    /// The gyro counts that read zero, x,y,z.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        required = true,
+        allow_hyphen_values = true
+    )]
+    pub gyro_offset: Vec<f64>,
+    /// Gyro counts per rad/s, x,y,z.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        required = true,
+        allow_hyphen_values = true
+    )]
+    pub gyro_scale: Vec<f64>,
+}
+
+fn triad(values: &[f64], flag: &str) -> anyhow::Result<[f64; 3]> {
+    values
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("--{flag} takes three values x,y,z, not {}", values.len()))
+}
+
+fn run_imu_tk(a: &ImuTkArgs) -> anyhow::Result<()> {
+    let how = ImuTkImport {
+        unit_serial: a.unit_serial.clone(),
+        site: Site {
+            gravity_mps2: a.gravity,
+            ..Site::new(a.latitude, a.longitude, a.height)
+        },
+        accel: NominalTriad {
+            offset: triad(&a.accel_offset, "accel-offset")?,
+            counts_per_unit: triad(&a.accel_scale, "accel-scale")?,
+        },
+        gyro: NominalTriad {
+            offset: triad(&a.gyro_offset, "gyro-offset")?,
+            counts_per_unit: triad(&a.gyro_scale, "gyro-scale")?,
+        },
+    };
+    let run = import_imu_tk(&a.accel, &a.gyro, &a.out, &how)?;
+    println!(
+        "{} records at {:.3} Hz (the median step of the first stamps)",
+        run.records, run.sample_rate_hz
+    );
+    eprintln!(
+        "wrote {} and {}",
+        run.data.display(),
+        run.metadata.display()
+    );
+    Ok(())
 }
 
 #[derive(clap::Args)]
@@ -29,6 +126,7 @@ pub struct PsinsArgs {
 
 pub fn run_import(c: &ImportCommand) -> anyhow::Result<()> {
     match c {
+        ImportCommand::ImuTk(a) => run_imu_tk(a),
         ImportCommand::Psins(a) => {
             let serial = a.unit_serial.clone().unwrap_or_else(|| {
                 let stem = a

@@ -14,7 +14,7 @@ use crate::calib::{
 use crate::compensation::thermal::ThermalTerms;
 use crate::compensation::CompensationFile;
 use crate::io::data::{
-    DataError, DataFormat, ReadLimits, RecordReader, RecordWriter, WriteOptions,
+    CountsConversion, DataError, DataFormat, ReadLimits, RecordReader, RecordWriter, WriteOptions,
 };
 use crate::io::meta::{write_json, MetaError, RunMetadata};
 use crate::io::run::metadata_sidecar;
@@ -31,6 +31,8 @@ pub struct FileSource {
     /// f64le: each record carries `temp_c` (the metadata's
     /// `temperature_column`).
     pub temperature_column: bool,
+    /// A counts file's nominal conversion (the metadata's `counts`).
+    pub counts: Option<CountsConversion>,
 }
 
 impl FileSource {
@@ -43,6 +45,7 @@ impl FileSource {
             sample_rate_hz: meta.sample_rate_hz,
             limits: ReadLimits::default(),
             temperature_column: meta.temperature_column,
+            counts: meta.counts,
         };
         let run = RunInfo {
             site: meta.site(),
@@ -63,7 +66,8 @@ impl RecordSource for FileSource {
             self.limits,
         )
         .map_err(|e| CalibError::Source(e.to_string()))?
-        .with_temperature_column(self.temperature_column);
+        .with_temperature_column(self.temperature_column)
+        .with_counts(self.counts);
         Ok(Box::new(
             reader.map(|r| r.map_err(|e| CalibError::Source(e.to_string()))),
         ))
@@ -85,7 +89,8 @@ fn temperature_curve(source: &FileSource) -> Result<Option<TemperatureCurve>, Da
         source.sample_rate_hz,
         source.limits,
     )?
-    .with_temperature_column(source.temperature_column);
+    .with_temperature_column(source.temperature_column)
+    .with_counts(source.counts);
     if !reader.has_temperature() {
         return Ok(None);
     }
@@ -388,7 +393,8 @@ fn write_compensated(
     target: &CompensateTarget,
 ) -> Result<(u64, bool), CompensateError> {
     let reader = RecordReader::open(data, meta.format, meta.sample_rate_hz)?
-        .with_temperature_column(meta.temperature_column);
+        .with_temperature_column(meta.temperature_column)
+        .with_counts(meta.counts);
     let temperature_column = reader.has_temperature();
     let options = if target.format == DataFormat::Csv {
         let p = &file.provenance;

@@ -30,6 +30,9 @@ pub enum DataKind {
     /// `t,wx,wy,wz,fx,fy,fz`: angular rate (rad/s) and specific force (m/s²)
     /// sampled at `t`.
     Rates,
+    /// `t,cgx,cgy,cgz,cax,cay,caz`: the unit's raw outputs, converted by
+    /// the metadata's `counts` into increments or rates.
+    Counts,
 }
 
 /// Largest relative deviation of a time step from the nominal step

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use super::data::DataFormat;
+use super::data::{CountsConversion, DataFormat};
 use crate::model::thermal::PLAUSIBLE_C;
 use crate::model::{Effects, ErrorParameters, TemperatureHistory, ThermalTruth};
 use crate::nav::Site;
@@ -106,6 +106,10 @@ pub struct RunMetadata {
     /// (SPEC §5). A CSV file's header says so for itself.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub temperature_column: bool,
+    /// A run of raw outputs (a CSV `counts` header): each channel's
+    /// nominal offset and weight (SPEC §5).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub counts: Option<CountsConversion>,
     /// The product type the unit is built to (its acceptance limits are
     /// the server's product type of this name).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -158,6 +162,18 @@ impl RunMetadata {
                     PLAUSIBLE_C.start(),
                     PLAUSIBLE_C.end()
                 )));
+            }
+        }
+        if let Some(c) = &self.counts {
+            if self.format == DataFormat::F64le {
+                return Err(invalid(
+                    "counts: raw counts come in a CSV file with a `counts` header; an f64le \
+                     run holds increments"
+                        .into(),
+                ));
+            }
+            if let Some(problem) = c.problem() {
+                return Err(invalid(problem));
             }
         }
         if let Some(s) = &self.scheme {

@@ -369,6 +369,7 @@ fn metadata_of(
         recorded_at: None,
         temperature_c: None,
         temperature_column: false,
+        counts: None,
         product: None,
         notes: Some(format!(
             "imported from the PSINS SIMU log {}: axes x right, y forward, z up as logged",

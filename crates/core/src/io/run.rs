@@ -116,6 +116,7 @@ pub fn write_simulated_run(
         // A soak is stated once; a history is the column.
         temperature_c: cfg.temperature.as_ref().and_then(|h| h.soak_c()),
         temperature_column: column && format == DataFormat::F64le,
+        counts: None,
         product: None,
         notes: Some("simulated run".into()),
         extra: Default::default(),

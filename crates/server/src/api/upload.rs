@@ -27,7 +27,7 @@ pub use super::upload_store::{queue_full, UploadAnswer};
 use super::upload_store::{store_run, Ingested, StoredRun};
 use super::{refuse_while_stopping, AppState};
 use crate::metrics::UploadOutcome;
-use sinscal_core::io::data::{DataError, DataFormat, ReadLimits, RecordReader};
+use sinscal_core::io::data::{CountsConversion, DataError, DataFormat, ReadLimits, RecordReader};
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::io::UnitSerial;
 
@@ -124,7 +124,7 @@ type Sunk = (String, u64, Option<(u64, bool)>);
 fn sink(
     rx: tokio::sync::mpsc::Receiver<Bytes>,
     file: std::fs::File,
-    check: Option<(DataFormat, f64, ReadLimits, bool)>,
+    check: Option<DataCheck>,
     max_cpu: std::time::Duration,
 ) -> Result<Sunk, SinkError> {
     let mut tee = Tee {
@@ -137,8 +137,8 @@ fn sink(
         write_error: None,
     };
     let checked = match check {
-        Some((format, rate, limits, temperature_column)) => {
-            let outcome = count_records(&mut tee, format, rate, limits, temperature_column);
+        Some(check) => {
+            let outcome = count_records(&mut tee, &check);
             if let Some(e) = tee.write_error.take() {
                 return Err(SinkError::Io(e));
             }
@@ -154,15 +154,32 @@ fn sink(
     Ok((hex::encode(tee.hasher.finalize()), tee.written, checked))
 }
 
-fn count_records(
-    reader: impl Read,
+/// How an upload's data is read to check it: as its metadata describes
+/// it, within the server's limits.
+struct DataCheck {
     format: DataFormat,
-    rate: f64,
+    sample_rate_hz: f64,
     limits: ReadLimits,
     temperature_column: bool,
-) -> Result<(u64, bool), DataError> {
-    let mut records = RecordReader::new(reader, format, rate, limits)?
-        .with_temperature_column(temperature_column);
+    counts: Option<CountsConversion>,
+}
+
+impl DataCheck {
+    fn of(meta: &RunMetadata, limits: ReadLimits) -> Self {
+        DataCheck {
+            format: meta.format,
+            sample_rate_hz: meta.sample_rate_hz,
+            limits,
+            temperature_column: meta.temperature_column,
+            counts: meta.counts,
+        }
+    }
+}
+
+fn count_records(reader: impl Read, check: &DataCheck) -> Result<(u64, bool), DataError> {
+    let mut records = RecordReader::new(reader, check.format, check.sample_rate_hz, check.limits)?
+        .with_temperature_column(check.temperature_column)
+        .with_counts(check.counts);
     let mut n = 0;
     for r in records.by_ref() {
         r?;
@@ -191,14 +208,7 @@ where
 {
     let (pending, file) = st.run_store.create_temp()?;
     let (tx, rx) = tokio::sync::mpsc::channel::<Bytes>(16);
-    let check = meta.map(|m| {
-        (
-            m.format,
-            m.sample_rate_hz,
-            read_limits(st),
-            m.temperature_column,
-        )
-    });
+    let check = meta.map(|m| DataCheck::of(m, read_limits(st)));
     let max_cpu = st.config.upload_max_cpu;
     let task = tokio::task::spawn_blocking(move || sink(rx, file, check, max_cpu));
     let mut received = 0u64;
@@ -449,22 +459,18 @@ async fn receive_multipart(
     if data.checked.is_none() {
         // The data came before the metadata: it was spooled unchecked and
         // is validated from the temp file now.
-        let (path, format, rate, limits, max_cpu) = (
+        let (path, check, max_cpu) = (
             data.file.path().to_path_buf(),
-            meta.format,
-            meta.sample_rate_hz,
-            read_limits(st),
+            DataCheck::of(&meta, read_limits(st)),
             st.config.upload_max_cpu,
         );
-        let temperature_column = meta.temperature_column;
         let checked = tokio::task::spawn_blocking(move || {
             let file = std::fs::File::open(&path).map_err(SinkError::Io)?;
             let budgeted = Budgeted {
                 inner: io::BufReader::new(file),
                 budget: CpuBudget::start(max_cpu),
             };
-            count_records(budgeted, format, rate, limits, temperature_column)
-                .map_err(SinkError::Data)
+            count_records(budgeted, &check).map_err(SinkError::Data)
         })
         .await
         .map_err(|e| ApiError::Internal(format!("validation task: {e}")))??;

@@ -7,8 +7,8 @@ use crate::record::{DataKind, Interval, Intervals, Record, StepKind};
 
 use super::error::{Column, DataError, Position};
 use super::layout::{
-    INCREMENT_COLUMNS, MAX_COLUMNS, MEAN_RATE_SIGMAS, MEAN_RATE_TOLERANCE, RATE_COLUMNS,
-    TEMPERATURE_COLUMN,
+    COUNT_COLUMNS, INCREMENT_COLUMNS, MAX_COLUMNS, MEAN_RATE_SIGMAS, MEAN_RATE_TOLERANCE,
+    RATE_COLUMNS, TEMPERATURE_COLUMN,
 };
 
 /// Steps after which the mean step is checked: by then the mean of the
@@ -20,6 +20,7 @@ pub(crate) fn column(kind: DataKind, index0: usize) -> Column {
     let names = match kind {
         DataKind::Increments => &INCREMENT_COLUMNS,
         DataKind::Rates => &RATE_COLUMNS,
+        DataKind::Counts => &COUNT_COLUMNS,
     };
     Column {
         index: index0 + 1,
@@ -190,7 +191,9 @@ pub(crate) fn to_record(kind: DataKind, v: &[f64; MAX_COLUMNS], dt: f64) -> Reco
             dtheta: [v[1], v[2], v[3]],
             dv: [v[4], v[5], v[6]],
         },
-        DataKind::Rates => Record {
+        // Counts are converted before this (`CountsConversion`); taken
+        // as rates here they would read the count as rad/s.
+        DataKind::Rates | DataKind::Counts => Record {
             t: v[0],
             dtheta: [v[1] * dt, v[2] * dt, v[3] * dt],
             dv: [v[4] * dt, v[5] * dt, v[6] * dt],

@@ -5,7 +5,9 @@
 
 use crate::record::DataKind;
 
-use super::layout::{INCREMENT_COLUMNS, MAX_COLUMNS, RATE_COLUMNS, TEMPERATURE_COLUMN};
+use super::layout::{
+    COUNT_COLUMNS, INCREMENT_COLUMNS, MAX_COLUMNS, RATE_COLUMNS, TEMPERATURE_COLUMN,
+};
 
 /// The UTF-8 byte-order mark some spreadsheet programs put first.
 pub(crate) const UTF8_BOM: &[u8] = b"\xef\xbb\xbf";
@@ -82,6 +84,8 @@ pub(crate) fn parse_header(line: &[u8]) -> Result<(DataKind, bool), HeaderError>
         Ok((DataKind::Increments, temperature))
     } else if let Some(temperature) = matches(&RATE_COLUMNS) {
         Ok((DataKind::Rates, temperature))
+    } else if let Some(temperature) = matches(&COUNT_COLUMNS) {
+        Ok((DataKind::Counts, temperature))
     } else {
         let first = line
             .split(|b| *b == b',')

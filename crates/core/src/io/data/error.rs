@@ -4,7 +4,9 @@ use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
-use super::layout::{INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE};
+use super::layout::{
+    COUNT_COLUMNS, INCREMENT_COLUMNS, MEAN_RATE_TOLERANCE, RATE_COLUMNS, STEP_TOLERANCE,
+};
 use crate::model::thermal::PLAUSIBLE_C;
 
 /// Where in a data file something went wrong.
@@ -90,15 +92,28 @@ pub enum DataError {
         header_line: u64,
     },
 
+    /// A `counts` header in a run whose metadata gives no conversion.
+    #[error(
+        "line {line}: the header `{}` holds raw counts, and the metadata has no `counts` \
+         object giving each channel's offset and weight (SPEC §5)",
+        COUNT_COLUMNS.join(",")
+    )]
+    CountsWithoutConversion {
+        /// The header's line.
+        line: u64,
+    },
+
     /// An f64le file without any record.
     #[error("empty file: no f64le records (0 bytes)")]
     NoBinaryRecords,
 
     /// The first line that is not a comment holds data, not a header.
     #[error(
-        "line {line}: missing header: expected `{}` or `{}` before the data, found `{found}`",
+        "line {line}: missing header: expected `{}`, `{}` or `{}` before the data, found \
+         `{found}`",
         INCREMENT_COLUMNS.join(","),
-        RATE_COLUMNS.join(",")
+        RATE_COLUMNS.join(","),
+        COUNT_COLUMNS.join(",")
     )]
     MissingHeader {
         /// The line.
@@ -109,9 +124,10 @@ pub enum DataError {
 
     /// The header does not name a known kind of data.
     #[error(
-        "line {line}: unknown header `{found}`: expected `{}` or `{}`",
+        "line {line}: unknown header `{found}`: expected `{}`, `{}` or `{}`",
         INCREMENT_COLUMNS.join(","),
-        RATE_COLUMNS.join(",")
+        RATE_COLUMNS.join(","),
+        COUNT_COLUMNS.join(",")
     )]
     UnknownHeader {
         /// The line.
@@ -332,6 +348,7 @@ impl DataError {
             | DataError::NoBinaryRecords => None,
             DataError::NoRecords { header_line: line }
             | DataError::MissingHeader { line, .. }
+            | DataError::CountsWithoutConversion { line }
             | DataError::UnknownHeader { line, .. }
             | DataError::ColumnCount { line, .. }
             | DataError::NotNumeric { line, .. }

@@ -23,6 +23,9 @@ pub(crate) const INCREMENT_COLUMNS: [&str; 7] = ["t", "dthx", "dthy", "dthz", "d
 /// Column names of the rates kind, in file order.
 pub(crate) const RATE_COLUMNS: [&str; 7] = ["t", "wx", "wy", "wz", "fx", "fy", "fz"];
 
+/// Column names of the counts kind, in file order.
+pub(crate) const COUNT_COLUMNS: [&str; 7] = ["t", "cgx", "cgy", "cgz", "cax", "cay", "caz"];
+
 /// The optional last column of either header: the unit's temperature, °C
 /// (SPEC §3a, §5).
 pub(crate) const TEMPERATURE_COLUMN: &str = "temp_c";

@@ -29,6 +29,7 @@
 mod binary;
 mod buffer;
 mod check;
+mod counts;
 mod csv;
 mod error;
 mod format;
@@ -39,6 +40,7 @@ mod temperature;
 mod writer;
 
 pub use binary::{RECORD_BYTES, RECORD_BYTES_WITH_TEMPERATURE};
+pub use counts::{CountedKind, CountsConversion, TriadConversion};
 pub use error::{Column, DataError, Position};
 pub use format::{DataFormat, ReadLimits, UnknownFormat};
 pub use layout::STEP_TOLERANCE;

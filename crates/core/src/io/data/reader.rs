@@ -11,6 +11,7 @@ use crate::record::{DataKind, Interval, Record};
 use super::binary::{self, RECORD_BYTES, RECORD_BYTES_WITH_TEMPERATURE};
 use super::buffer::{FillError, Window};
 use super::check::{column, first_non_finite, to_record, Timing};
+use super::counts::CountsConversion;
 use super::csv::{self, FieldError, HeaderError};
 use super::error::{excerpt, DataError, Position};
 use super::format::{DataFormat, ReadLimits};
@@ -58,6 +59,8 @@ pub struct RecordReader<R: Read> {
     kind: DataKind,
     /// Whether each record carries `temp_c`.
     temperature: bool,
+    /// The metadata's conversion of a counts file's records.
+    counts: Option<CountsConversion>,
     /// f64le: bytes a record.
     record_bytes: usize,
     last_temperature_c: Option<f64>,
@@ -145,6 +148,7 @@ impl<R: Read> RecordReader<R> {
             format,
             kind: DataKind::Increments,
             temperature: false,
+            counts: None,
             record_bytes: RECORD_BYTES,
             last_temperature_c: None,
             track: TemperatureTrack::default(),
@@ -181,6 +185,14 @@ impl<R: Read> RecordReader<R> {
                 RECORD_BYTES
             };
         }
+        self
+    }
+
+    /// The run's nominal conversion of raw counts (the metadata's
+    /// `counts`): what a `counts` header's records are read through. A
+    /// file of another kind ignores it.
+    pub fn with_counts(mut self, counts: Option<CountsConversion>) -> Self {
+        self.counts = counts;
         self
     }
 
@@ -385,16 +397,31 @@ impl<R: Read> RecordReader<R> {
             let line_no = self.lines;
             let values = csv_values(line, line_no, self.kind, columns, &mut self.timing);
             self.window.consume(consume);
-            let record = values.and_then(|(v, interval)| {
+            let record = values.and_then(|(mut v, interval)| {
                 self.accept_temperature(v[0], &v, || Position::Line(line_no))?;
                 self.interval = interval;
-                Ok(to_record(self.kind, &v, interval.dt))
+                let kind = self.physical_kind(&mut v)?;
+                Ok(to_record(kind, &v, interval.dt))
             });
             if record.is_ok() {
                 self.records += 1;
             }
             return Some(record);
         }
+    }
+
+    /// The kind of data a record's values are, converting counts to
+    /// physical values in place.
+    #[inline]
+    fn physical_kind(&self, values: &mut [f64; MAX_COLUMNS]) -> Result<DataKind, DataError> {
+        if self.kind != DataKind::Counts {
+            return Ok(self.kind);
+        }
+        let conv = self.counts.ok_or(DataError::CountsWithoutConversion {
+            line: self.header_line,
+        })?;
+        conv.convert(values);
+        Ok(conv.kind.data_kind())
     }
 
     fn next_binary(&mut self) -> Option<Result<Record, DataError>> {
