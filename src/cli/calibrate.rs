@@ -7,6 +7,7 @@ use std::sync::atomic::AtomicBool;
 
 use sinscal_core::calib::{Effect, ErrorModel, EstimateOptions, EstimatorKind};
 use sinscal_core::io::meta::{write_json, RunMetadata};
+use sinscal_core::model::Grade;
 use sinscal_core::pipeline::calibrate_file;
 
 #[derive(clap::Args)]
@@ -34,6 +35,10 @@ pub struct CalibrateArgs {
     /// temperature column: model `+thermal`.
     #[arg(long)]
     thermal: bool,
+    /// The unit's grade, which sizes the priors; default: the grade the
+    /// run's gyro noise names.
+    #[arg(long, value_enum)]
+    grade: Option<Grade>,
 }
 
 pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> {
@@ -45,6 +50,7 @@ pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> 
         } else {
             a.model
         },
+        grade: a.grade,
         ..EstimateOptions::default()
     };
     let cancel = AtomicBool::new(false);

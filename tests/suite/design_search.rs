@@ -97,7 +97,7 @@ fn a_navigation_axis_table_gets_a_navigation_axis_scheme() {
 #[test]
 fn impossible_requests_are_refused_with_a_reason() {
     let req = DesignRequest {
-        min_dwell_s: 5.0,
+        min_dwell_s: 1.0,
         ..tactical()
     };
     let e = design(&req).unwrap_err().to_string();

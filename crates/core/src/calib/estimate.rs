@@ -286,7 +286,7 @@ fn estimate_from(
         warnings: unsettled.into_iter().collect(),
         ..Findings::default()
     };
-    let parameters = parameter_table(&params, &last, opts, &mut findings);
+    let parameters = parameter_table(&params, &last, ctx.priors(), &mut findings);
     findings.warnings.extend(thermal_span_warning(ctx));
     let effect_estimates = effect_table(&effect_states, &effects, &last, &mut findings);
     findings
@@ -306,6 +306,7 @@ fn estimate_from(
         effects: effect_estimates,
         warnings: findings.warnings,
         poorly_observable: findings.poorly_observable,
+        grade: Some(ctx.grade),
         passes,
         records: scan.n_records,
         duration_s: scan.t_end - scan.t_begin,

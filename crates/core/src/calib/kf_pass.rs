@@ -14,7 +14,7 @@ use super::replay::PassTrace;
 use super::result::{Convergence, DwellResidual};
 use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
-use crate::estimation::filter::Innovation;
+use crate::estimation::filter::{Innovation, FORGOTTEN_VELOCITY_SIGMA_MPS};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// Sums over one dwell's zero-velocity innovations, from which the
@@ -159,6 +159,7 @@ pub(super) fn filter_pass(
         .collect();
     let mut check = CheckAccumulator::new(&ctx.scan.segments, n_p);
 
+    let mut was_observed = true;
     walk(ctx, &comp, &c_b_n0, &mut kf, &terms, progress, |kf, w| {
         let d0 = dwell_at(&ctx.scan.segments, w.t_start);
         let dwell = d0.filter(|_| d0 == dwell_at(&ctx.scan.segments, w.t_end));
@@ -168,6 +169,16 @@ pub(super) fn filter_pass(
             let v_n = observed.then_some(&w.nav.v_n);
             t.record(kf, w.t_end - w.t_start, &c_b_n, v_n);
         }
+        // A rest after a motion whose velocity the model cannot follow:
+        // the attitude carried through it informs the parameters, its
+        // velocity does not (`Grade::trusts_motion_velocity`).
+        if observed && !was_observed && !ctx.grade.trusts_motion_velocity() {
+            kf.forget_velocity(FORGOTTEN_VELOCITY_SIGMA_MPS);
+            if let Some(t) = trace.as_mut() {
+                t.forgot_velocity();
+            }
+        }
+        was_observed = observed;
         if observed {
             let innov = kf.update_zero_velocity(&w.nav.v_n, &c_b_n)?;
             if let Some(d) = dwell {

@@ -68,7 +68,7 @@ pub(super) fn lsq_pass(
     let site = &ctx.run.site;
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
-    let prior = prior_sigma(ctx.opts.prior_scale);
+    let prior = prior_sigma(ctx.priors());
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
     let window_s = ctx.window() as f64 / ctx.run.sample_rate_hz;
     let mut nodes: Vec<Node> = vec![Node {
@@ -122,7 +122,7 @@ fn solve(
     // Priors: scaled parameters have unit variance; φ at the start as the
     // filter's.
     normal.add_diagonal(0..n_p, 1.0);
-    let p0_phi_inv = start_attitude_information(&ctx.run.site, ctx.opts.prior_scale)
+    let p0_phi_inv = start_attitude_information(&ctx.run.site, ctx.priors())
         .ok_or_else(|| CalibError::Numerical("singular attitude prior".into()))?;
     normal.add_block3(phi(0), &p0_phi_inv);
 

@@ -5,6 +5,7 @@
 //! through [`RecordSource`], which the caller implements.
 
 pub(crate) mod check_statistics;
+mod detect_options;
 pub(crate) mod effect_model;
 pub(crate) mod effect_sensitivity;
 pub(crate) mod error;

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use super::effect_model::ErrorModel;
 use super::run::EstimatorKind;
 use super::segment::DetectOptions;
+use crate::model::Grade;
 
 pub use crate::estimation::NoiseDensity;
 
@@ -45,9 +46,12 @@ pub struct EstimateOptions {
     /// observations (`noise_fit`) and calibrate again under the fitted
     /// model.
     pub fit_noise: bool,
-    /// Prior 1-σ of each parameter family as a multiple of the seed
-    /// paper's magnitude.
+    /// Prior 1-σ of each parameter family as a multiple of the grade's
+    /// typical magnitude (the seed paper's for navigation units).
     pub prior_scale: f64,
+    /// The unit's grade; `None` takes it from the gyro noise the run
+    /// shows (`Grade::of_gyro_noise`).
+    pub grade: Option<Grade>,
     /// Run the least-squares cross-check after the filter.
     pub cross_check: bool,
     /// Add the in-run thermal states (model `+thermal`) to a run whose
@@ -74,6 +78,7 @@ impl Default for EstimateOptions {
             noise: None,
             fit_noise: true,
             prior_scale: 4.0,
+            grade: None,
             cross_check: true,
             history_points: 500,
             thermal_auto: false,

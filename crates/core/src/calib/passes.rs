@@ -7,7 +7,7 @@ use super::kf_pass::{filter_pass, Pass};
 use super::lsq::lsq_pass;
 use super::result::Convergence;
 use super::run::{EstimatorKind, Progress};
-use super::walk::PassContext;
+use super::walk::{starting_point, PassContext};
 use crate::model::{ErrorParameters, N_PARAMS};
 
 /// Where the passes stand.
@@ -54,7 +54,7 @@ pub(super) fn run_passes(
     let (mut params, mut effects, done) = match from {
         Some(s) => (s.params, s.effects, s.passes),
         None => (
-            ErrorParameters::zero(),
+            starting_point(ctx)?,
             vec![0.0; opts.model.states().len()],
             0,
         ),

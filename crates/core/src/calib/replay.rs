@@ -17,7 +17,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
 
 use super::error::CalibError;
-use crate::estimation::filter::{SystematicFilter, NAV};
+use crate::estimation::filter::{SystematicFilter, FORGOTTEN_VELOCITY_SIGMA_MPS, NAV};
 
 /// One window as the filter saw it.
 struct WindowTrace {
@@ -27,6 +27,9 @@ struct WindowTrace {
     b: Vec<f32>,
     /// The open-loop velocity at a zero-velocity window's end.
     zupt_v_n: Option<Vector3<f64>>,
+    /// The pass forgot the velocity error before this window's update
+    /// (`SystematicFilter::forget_velocity`).
+    forgot_velocity: bool,
 }
 
 /// The windows of one pass, in order.
@@ -72,6 +75,7 @@ impl PassTrace {
         self.windows.push(WindowTrace {
             t,
             c_b_n: *c_b_n,
+            forgot_velocity: false,
             b: b.iter().map(|x| *x as f32).collect(),
             zupt_v_n: open_loop,
         });
@@ -82,6 +86,14 @@ impl PassTrace {
         for i in 0..3 {
             self.feedback[i] += phi[i];
             self.feedback[3 + i] += dv[i];
+        }
+    }
+
+    /// Marks the window just recorded as one before whose update the pass
+    /// forgot the velocity error.
+    pub fn forgot_velocity(&mut self) {
+        if let Some(w) = self.windows.last_mut() {
+            w.forgot_velocity = true;
         }
     }
 
@@ -98,6 +110,9 @@ impl PassTrace {
         for w in &self.windows {
             let b = DMatrix::from_iterator(NAV, self.n_p, w.b.iter().map(|x| *x as f64));
             kf.propagate_input(w.t, &w.c_b_n, &b);
+            if w.forgot_velocity {
+                kf.forget_velocity(FORGOTTEN_VELOCITY_SIGMA_MPS);
+            }
             if let Some(v) = &w.zupt_v_n {
                 kf.update_zero_velocity(v, &w.c_b_n)?;
             }
@@ -145,6 +160,10 @@ impl PassTrace {
             effect =
                 kf.navigation_transition(t) * effect + Vector6::from_column_slice(bp.as_slice());
             kf.propagate_input(t, &last.c_b_n, &b);
+            if group.iter().any(|w| w.forgot_velocity) {
+                kf.forget_velocity(FORGOTTEN_VELOCITY_SIGMA_MPS);
+                effect.fixed_rows_mut::<3>(3).fill(0.0);
+            }
             if let Some(v) = &last.zupt_v_n {
                 let v = v - Vector3::new(effect[3], effect[4], effect[5]);
                 kf.update_zero_velocity(&v, &last.c_b_n)?;

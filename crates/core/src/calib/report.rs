@@ -9,13 +9,12 @@ use super::effect_model::Effect;
 use super::effect_sensitivity::EffectParameter;
 use super::error::CalibError;
 use super::kf_pass::Pass;
-use super::options::EstimateOptions;
 use super::result::{CrossCheck, ParameterEstimate};
 use super::temperature::THERMAL_SPAN_C;
 use super::thermal_states::RunThermal;
 use super::thermal_states::{is_thermal, run_thermal};
 use super::walk::PassContext;
-use crate::estimation::priors::prior_sigma;
+use crate::estimation::priors::{prior_sigma, Priors};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// A parameter is reported poorly observable when its σ after the run is
@@ -53,10 +52,10 @@ impl Findings {
 pub(super) fn parameter_table(
     params: &ErrorParameters,
     last: &Pass,
-    opts: &EstimateOptions,
+    priors: Priors,
     findings: &mut Findings,
 ) -> BTreeMap<String, ParameterEstimate> {
-    let prior = prior_sigma(opts.prior_scale);
+    let prior = prior_sigma(priors);
     let mut table = BTreeMap::new();
     for (i, info) in PARAMETERS.iter().enumerate() {
         let sigma = last.sigma[i];

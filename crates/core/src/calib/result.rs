@@ -11,6 +11,7 @@ use super::segment::RunSegment;
 use super::thermal_states::RunThermal;
 use crate::estimation::NoiseModel;
 use crate::model::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
+use crate::model::Grade;
 
 /// One estimated parameter in its canonical unit.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -154,6 +155,11 @@ pub struct CalibrationResult {
     /// results stored before the list existed).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub poorly_observable: Vec<String>,
+    /// The unit's grade the priors were sized for: given, or named by the
+    /// run's gyro noise; absent in results stored before grades existed
+    /// (all navigation units).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grade: Option<Grade>,
     pub passes: u32,
     pub records: u64,
     pub duration_s: f64,
@@ -248,8 +254,14 @@ impl CalibrationResult {
         let mut out = String::new();
         let _ = writeln!(
             out,
-            "{:<20} {:>14} {:>12}  unit        ({} estimator, {}, {} passes)",
-            "parameter", "value", "1-sigma", self.estimator, self.model, self.passes
+            "{:<20} {:>14} {:>12}  unit        ({} estimator, {}, {} passes{})",
+            "parameter",
+            "value",
+            "1-sigma",
+            self.estimator,
+            self.model,
+            self.passes,
+            self.grade.map_or(String::new(), |g| format!(", {g} grade"))
         );
         for info in crate::model::PARAMETERS.iter() {
             if let Some(p) = self.parameters.get(info.name) {

@@ -21,49 +21,7 @@ use serde::{Deserialize, Serialize};
 use crate::nav::attitude::{dcm_to_rotvec, rotvec_to_dcm};
 use crate::record::{Gap, Interval, Intervals, Record};
 
-/// Thresholds of the still/moving classification.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct DetectOptions {
-    /// Block length over which rates are averaged, s.
-    pub block_s: f64,
-    /// A block whose mean angular rate exceeds this is moving, deg/s.
-    /// At rest a gyro senses Earth rate (0.004 deg/s) plus its bias; even
-    /// an uncalibrated ring-laser gyro's 1 deg/h is 0.0003 deg/s, so this
-    /// bound does not depend on the unit's calibration. It is the only
-    /// sign of a turn about the vertical, which leaves f^b unchanged.
-    pub rate_threshold_dps: f64,
-    /// A block whose mean specific force differs by more than this from
-    /// the mean of the still stretch it would extend (or, after a motion,
-    /// from the block before) is moving, m/s². 0.02 m/s² is ten times the
-    /// block mean's noise at a tactical-grade 50 µg/√Hz, and a tilt of
-    /// 0.12°: a unit lifted, or creeping below the rate bound, is moving.
-    pub force_step_mps2: f64,
-    /// Loose bounds on |f| at rest as fractions of the local gravity: a
-    /// unit reading outside them is falling, shaken or broken, not still.
-    pub force_range_g: [f64; 2],
-    /// Shortest still stretch taken as a dwell, s.
-    pub min_dwell_s: f64,
-    /// Time cut from each end of a still stretch, s.
-    pub guard_s: f64,
-    /// Span at the run's start over which its motion is summarised for a
-    /// run that does not begin at rest, s.
-    pub start_summary_s: f64,
-}
-
-impl Default for DetectOptions {
-    fn default() -> Self {
-        DetectOptions {
-            block_s: 0.1,
-            rate_threshold_dps: 0.05,
-            force_step_mps2: 0.02,
-            force_range_g: [0.5, 2.0],
-            min_dwell_s: 20.0,
-            guard_s: 0.5,
-            start_summary_s: 5.0,
-        }
-    }
-}
+pub use super::detect_options::DetectOptions;
 
 /// What the unit does during a segment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -153,6 +111,17 @@ struct DiffSums {
 }
 
 impl DiffSums {
+    /// The white-noise density per axis of a sum of squared differences
+    /// (`d2_theta` or `d2_v`): E|Δ(rate noise)|² = 3 q² (1/Δt_k + 1/Δt_{k−1})
+    /// per difference; zero without differences.
+    fn density(&self, d2: f64) -> f64 {
+        if self.n > 0 {
+            (d2 / (3.0 * self.weight)).sqrt()
+        } else {
+            0.0
+        }
+    }
+
     fn add(&mut self, other: &DiffSums) {
         self.d2_theta += other.d2_theta;
         self.d2_v += other.d2_v;
@@ -243,8 +212,12 @@ pub struct Segmenter {
     block_diffs: DiffSums,
     /// The previous record's rates, unless a gap came since.
     prev: Option<MeanRates>,
-    /// Mean specific force of the last closed block, m/s².
+    /// Mean specific force and angular rate of the last closed block.
     prev_block_f: Option<Vector3<f64>>,
+    prev_block_omega: Option<Vector3<f64>>,
+    /// The run's rest rate: the mean angular rate of its first still
+    /// stretch long enough for a dwell (Earth rate and the gyro biases).
+    rest_omega: Option<Vector3<f64>>,
     still_diffs: DiffSums,
     /// The last block's differences if it was still, waiting for the next
     /// block's decision, and whether the block before it was still.
@@ -270,6 +243,8 @@ impl Segmenter {
             block_diffs: DiffSums::default(),
             prev: None,
             prev_block_f: None,
+            prev_block_omega: None,
+            rest_omega: None,
             still_diffs: DiffSums::default(),
             pending_diffs: None,
             before_still: false,
@@ -333,22 +308,67 @@ impl Segmenter {
         self.prev = Some(rates);
     }
 
-    /// The one still/moving decision for a block with mean rate `omega_b`
-    /// and specific force `f_b`.
-    fn is_still(&self, omega_b: &Vector3<f64>, f_b: &Vector3<f64>) -> bool {
+    /// White-noise densities (per axis: rad/√s, m/s/√s) to judge a block
+    /// by: those of the still blocks so far once there are enough of them,
+    /// else the block's own (which motion only raises).
+    fn judging_noise(&self, block: &DiffSums) -> (f64, f64) {
+        const ENOUGH: usize = 200;
+        let d = if self.still_diffs.n >= ENOUGH {
+            &self.still_diffs
+        } else {
+            block
+        };
+        (d.density(d.d2_theta), d.density(d.d2_v))
+    }
+
+    /// The one still/moving decision for a block of `span` seconds with
+    /// mean rate `omega_b`, specific force `f_b` and record differences
+    /// `diffs`: steady against its references within what the run's noise
+    /// lets a block mean stray, and |f| loosely gravity-sized.
+    fn is_still(
+        &self,
+        omega_b: &Vector3<f64>,
+        f_b: &Vector3<f64>,
+        diffs: &DiffSums,
+        span: f64,
+    ) -> bool {
         let o = &self.opts;
         let force = f_b.norm();
         let sized =
             force > o.force_range_g[0] * self.gravity && force < o.force_range_g[1] * self.gravity;
+        let (q_gyro, q_accel) = self.judging_noise(diffs);
+        let spread = o.noise_sigmas / span.sqrt();
+        let rate_tol = o.rate_threshold_dps.to_radians().max(q_gyro * spread);
+        let force_tol = o.force_step_mps2.max(q_accel * spread);
         // The reference is the still stretch this block would extend; after
         // a motion, the block before (a turn or a lift changes f^b from
         // block to block).
-        let reference = match self.stretches.last() {
-            Some(s) if s.still => Some(s.sum_dv / s.duration),
-            _ => self.prev_block_f,
+        let still_stretch = self.stretches.last().filter(|s| s.still);
+        let f_ref = still_stretch.map_or(self.prev_block_f, |s| Some(s.sum_dv / s.duration));
+        let steady = f_ref.map_or(true, |f_ref| (f_b - f_ref).norm() < force_tol);
+        let resting = match self.rest_omega {
+            Some(rest) => (omega_b - rest).norm() < rate_tol,
+            None => {
+                let w_ref = still_stretch
+                    .map_or(self.prev_block_omega, |s| Some(s.sum_dtheta / s.duration));
+                omega_b.norm() < o.rest_rate_max_dps.to_radians()
+                    && w_ref.map_or(true, |w| (omega_b - w).norm() < rate_tol)
+            }
         };
-        let steady = reference.map_or(true, |f_ref| (f_b - f_ref).norm() < o.force_step_mps2);
-        omega_b.norm() < o.rate_threshold_dps.to_radians() && sized && steady
+        resting && sized && steady
+    }
+
+    /// Takes the run's rest rate from a still stretch that has just ended,
+    /// if it is the first long enough for a dwell.
+    fn learn_rest_rate(&mut self) {
+        if self.rest_omega.is_some() {
+            return;
+        }
+        if let Some(s) = self.stretches.last().filter(|s| s.still) {
+            if s.t_end - s.t_start >= self.opts.min_dwell_s {
+                self.rest_omega = Some(s.sum_dtheta / s.duration);
+            }
+        }
     }
 
     fn close_block(&mut self) {
@@ -369,7 +389,7 @@ impl Segmenter {
         let span = b.duration;
         let omega_b = b.sum_dtheta / span;
         let f_b = b.sum_dv / span;
-        b.still = self.is_still(&omega_b, &f_b);
+        b.still = self.is_still(&omega_b, &f_b, &diffs, span);
         // A block counts toward the noise only between two still blocks:
         // the block in which a turn starts or ends can pass the rule with a
         // few records of motion in it, and one such difference outweighs
@@ -393,11 +413,15 @@ impl Segmenter {
             self.start_force.add(f_b.norm());
         }
         self.prev_block_f = Some(f_b);
+        self.prev_block_omega = Some(omega_b);
         b.c_rot = rotvec_to_dcm(&b.sum_dtheta);
         b.peak_rate = omega_b.norm();
         match self.stretches.last_mut() {
             Some(s) if s.still == b.still => s.absorb(&b),
-            _ => self.stretches.push(b),
+            _ => {
+                self.learn_rest_rate();
+                self.stretches.push(b)
+            }
         }
     }
 
@@ -408,17 +432,9 @@ impl Segmenter {
     pub fn finish(mut self) -> Segmentation {
         self.close_block();
         let d = self.still_diffs;
-        // E|Δ(rate noise)|² = 3 q (1/Δt_k + 1/Δt_{k−1}) per difference.
-        let density = |d2: f64| {
-            if d.n > 0 {
-                (d2 / (3.0 * d.weight)).sqrt()
-            } else {
-                0.0
-            }
-        };
         let noise = MeasuredNoise {
-            arw: density(d.d2_theta),
-            vrw: density(d.d2_v),
+            arw: d.density(d.d2_theta),
+            vrw: d.density(d.d2_v),
             n_differences: d.n,
         };
         let (rate_mean_dps, rate_spread_dps) = self.start_rate.mean_spread();

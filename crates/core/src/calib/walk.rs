@@ -21,11 +21,11 @@ use super::timed::{timed_records, Timed, TimedRecords};
 use crate::estimation::align;
 use crate::estimation::filter::{error_dynamics, SystematicFilter};
 use crate::estimation::noise_model::NoiseModel;
-use crate::estimation::priors::{initial_navigation_covariance, prior_sigma};
+use crate::estimation::priors::{initial_navigation_covariance, prior_sigma, Priors};
 use crate::estimation::sensitivity::base_columns;
 use crate::estimation::sensitivity::Rows;
 use crate::model::units::{DEG_PER_RT_H, UG_PER_RT_HZ};
-use crate::model::{Compensator, N_PARAMS};
+use crate::model::{Compensator, ErrorParameters, Grade, N_PARAMS};
 use crate::nav::attitude::skew;
 use crate::nav::Strapdown;
 use crate::record::Record;
@@ -53,9 +53,19 @@ pub(crate) struct PassContext<'a> {
     /// The unit's temperature through the run (SPEC §3a), when the run
     /// has a temperature column: what the thermal states' columns follow.
     pub temperature: Option<TemperatureCurve>,
+    /// The unit's grade: given, or named by the run's gyro noise.
+    pub grade: Grade,
 }
 
 impl PassContext<'_> {
+    /// What the estimator's priors are made of.
+    pub fn priors(&self) -> Priors {
+        Priors {
+            scale: self.opts.prior_scale,
+            grade: self.grade,
+        }
+    }
+
     /// Records per window.
     pub fn window(&self) -> usize {
         ((self.opts.window_s * self.run.sample_rate_hz).round() as usize).max(1)
@@ -101,11 +111,11 @@ impl PassContext<'_> {
         noise: &NoiseModel,
     ) -> SystematicFilter {
         let site = &self.run.site;
-        let mut scale = prior_sigma(self.opts.prior_scale);
+        let mut scale = prior_sigma(self.priors());
         scale.extend_from_slice(effect_scale);
         SystematicFilter::new(
             error_dynamics(&site.omega_ie_n(), &site.f_rest_n()),
-            &initial_navigation_covariance(site, self.opts.prior_scale),
+            &initial_navigation_covariance(site, self.priors()),
             &scale,
             noise,
             self.scan.duration_s(),
@@ -154,7 +164,9 @@ impl<'a> PassContext<'a> {
             None => NoiseModel::white(scan.arw, scan.vrw),
         }
         .floored(MIN_ARW, MIN_VRW);
+        let grade = opts.grade.unwrap_or_else(|| Grade::of_gyro_noise(scan.arw));
         PassContext {
+            grade,
             source,
             run,
             opts,
@@ -186,7 +198,11 @@ pub(crate) fn align_start(
     let dwell1 = first_dwell(ctx.scan)?;
     let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
     let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
-    let c_coarse = align::coarse(&f_b, &w_b)?;
+    let c_coarse = if ctx.grade.earth_rate_hidden() {
+        align::coarse_level(&f_b)?
+    } else {
+        align::coarse(&f_b, &w_b)?
+    };
     let t_align_end = dwell1.t_end;
     let align_records = timed_records(ctx.source, ctx.scan, ctx.run.sample_rate_hz)?
         .map_while(|r| r.ok())
@@ -204,6 +220,26 @@ pub(crate) fn align_start(
             vrw: ctx.vrw,
         },
     )?)
+}
+
+/// Where the passes start: no error, or, for a unit whose gyro biases
+/// hide the Earth rate (a MEMS gyro's 0.3 deg/s is 70 times it), the
+/// first dwell's mean rate less the Earth rate at the nominal heading as
+/// the gyro biases. Left to the first pass, a bias that size turns the
+/// unit by degrees in every turn, and the filter's linear error model
+/// would take passes to catch up with it.
+pub(crate) fn starting_point(ctx: &PassContext) -> Result<ErrorParameters, CalibError> {
+    if !ctx.grade.earth_rate_hidden() {
+        return Ok(ErrorParameters::zero());
+    }
+    let dwell1 = first_dwell(ctx.scan)?;
+    let c_b_n = align::coarse_level(&Vector3::from(dwell1.mean_f_b))?;
+    let earth_b = c_b_n.transpose() * ctx.run.site.omega_ie_n();
+    let bias_b = Vector3::from(dwell1.mean_omega_b) - earth_b;
+    let (none, zero) = (Matrix3::zeros(), Vector3::zeros());
+    Ok(ErrorParameters::from_parts(
+        &bias_b, &none, &zero, &none, &zero,
+    ))
 }
 
 /// Takes effects of known size out of a compensated record: each one's

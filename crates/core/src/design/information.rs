@@ -43,7 +43,7 @@ use crate::calib::effect_sensitivity::{effect_column, EffectParameter, RecordMot
 use crate::calib::CalibError;
 use crate::estimation::filter::{error_dynamics, SystematicFilter};
 use crate::estimation::noise_model::NoiseModel;
-use crate::estimation::priors::{initial_navigation_covariance, prior_sigma};
+use crate::estimation::priors::{initial_navigation_covariance, prior_sigma, Priors};
 use crate::estimation::sensitivity::base_columns;
 use crate::model::{N_PARAMS, PARAMETERS};
 use crate::nav::attitude::rotvec_to_dcm;
@@ -59,9 +59,9 @@ pub struct ObjectiveSettings {
     pub noise: NoiseModel,
     /// σ of a zero-velocity observation, m/s.
     pub zupt_sigma_mps: f64,
-    /// Prior 1-σ of each parameter family as a multiple of the seed
-    /// paper's magnitude (the estimator's `prior_scale`).
-    pub prior_scale: f64,
+    /// The estimator's priors: its `prior_scale` at the grade the noise
+    /// names.
+    pub priors: Priors,
     /// The unit's start attitude: rotation vector in n, degrees.
     pub initial_attitude_deg: [f64; 3],
     /// Longest filter window at rest, s.
@@ -172,11 +172,11 @@ pub fn scheme_information(
     let phi = Vector3::from(s.initial_attitude_deg).map(f64::to_radians);
     let c_b_n0: Matrix3<f64> = rotvec_to_dcm(&phi);
     let traj = Trajectory::new(scheme, &c_b_n0, &s.site).map_err(CalibError::Unusable)?;
-    let mut scale = prior_sigma(s.prior_scale);
+    let mut scale = prior_sigma(s.priors);
     scale.extend(s.effects.iter().map(|p| p.prior_sigma() * p.si_per_unit()));
     let mut kf = SystematicFilter::new(
         error_dynamics(&s.site.omega_ie_n(), &s.site.f_rest_n()),
-        &initial_navigation_covariance(&s.site, s.prior_scale),
+        &initial_navigation_covariance(&s.site, s.priors),
         &scale,
         &s.noise,
         traj.duration(),

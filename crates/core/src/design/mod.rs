@@ -24,7 +24,9 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use crate::calib::{CalibError, EstimateOptions, NoiseDensity, NoiseModel};
-use crate::model::PARAMETERS;
+use crate::estimation::priors::Priors;
+use crate::model::units::DEG_PER_RT_H;
+use crate::model::{Grade, PARAMETERS};
 use crate::nav::Site;
 use crate::sim::scheme::{Frame, DEFAULT_DWELL_S};
 use crate::sim::{HandTurns, Scheme};
@@ -183,7 +185,12 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
         site: req.site,
         noise: NoiseModel::from_density(&req.noise),
         zupt_sigma_mps: opts.zupt_sigma_mps,
-        prior_scale: opts.prior_scale,
+        priors: Priors {
+            scale: opts.prior_scale,
+            grade: opts.grade.unwrap_or_else(|| {
+                Grade::of_gyro_noise(req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H)
+            }),
+        },
         initial_attitude_deg: req.initial_attitude_deg,
         dwell_window_s: 10.0,
         guard_s: opts.detect.guard_s,

@@ -276,7 +276,7 @@ impl GapProblem {
     ) -> Result<Self, DiagnoseError> {
         let site = &ctx.run.site;
         let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
-        let p0_phi_inv = start_attitude_information(site, ctx.opts.prior_scale)
+        let p0_phi_inv = start_attitude_information(site, ctx.priors())
             .ok_or_else(|| DiagnoseError::Numerical("singular attitude prior".into()))?;
         let qc = white_noise_density(ctx.arw, ctx.vrw);
         let k_nodes = nodes.t.len();
@@ -286,7 +286,7 @@ impl GapProblem {
             &ctx.noise,
             &windows,
             ctx.scan.duration_s(),
-            &prior_sigma(ctx.opts.prior_scale),
+            &prior_sigma(ctx.priors()),
         );
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         for k in 0..k_nodes - 1 {

@@ -148,7 +148,7 @@ pub fn diagnose(
         })
     })?;
     let problem = GapProblem::new(&ctx, &nodes, cols.delay)?;
-    let prior = prior_sigma(opts.estimate.prior_scale);
+    let prior = prior_sigma(ctx.priors());
     stage(progress, 0.9, "selecting effects");
 
     let selection = select::select(&select::Selector {

@@ -32,6 +32,28 @@ pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>
     ]))
 }
 
+/// C_b^n from the mean specific force f^b alone, for a unit whose gyros
+/// cannot see the Earth rate: up along f, east along the body x axis
+/// made horizontal (y when x points up), north completing the frame. The
+/// heading is SPEC §4's nominal start (x east), not measured: such a
+/// unit's heading is unobservable, and it matters to the calibration only
+/// through the Earth rate its gyros cannot resolve.
+pub fn coarse_level(f_b: &Vector3<f64>) -> Result<Matrix3<f64>, EstimationError> {
+    let up = f_b.try_normalize(1e-9).ok_or(EstimationError::CannotAlign(
+        "no specific force in the first dwell: cannot level",
+    ))?;
+    let horizontal = |axis: Vector3<f64>| (axis - up * axis.dot(&up)).try_normalize(0.1);
+    let east = horizontal(Vector3::x())
+        .or_else(|| horizontal(Vector3::y()))
+        .expect("x and y cannot both be vertical");
+    let north = up.cross(&east);
+    Ok(Matrix3::from_rows(&[
+        east.transpose(),
+        north.transpose(),
+        up.transpose(),
+    ]))
+}
+
 /// How the fine alignment runs.
 #[derive(Clone, Copy, Debug)]
 pub struct FineAlignment {

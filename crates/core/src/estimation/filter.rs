@@ -59,6 +59,10 @@ pub struct Innovation {
     pub s: Matrix3<f64>,
 }
 
+/// σ of a forgotten velocity error, m/s: far beyond anything a hand
+/// motion leaves, so that the next update alone sets the velocity.
+pub const FORGOTTEN_VELOCITY_SIGMA_MPS: f64 = 1.0;
+
 /// Window lengths whose matrices are kept.
 const WINDOW_CACHE: usize = 8;
 
@@ -355,6 +359,17 @@ impl SystematicFilter {
             .ok_or(EstimationError::NotPositiveDefinite(
                 "parameter information",
             ))
+    }
+
+    /// Forgets the velocity error: it becomes unknown (σ `sigma_mps` per
+    /// axis), independent of the attitude, the wander and the parameters.
+    /// What a motion whose velocity the sensor model cannot follow (a
+    /// unit lifted and turned by hand, with effects beyond the model in
+    /// it) leaves at the next rest: the attitude it carries through the
+    /// motion still informs the parameters; its velocity no longer does.
+    pub fn forget_velocity(&mut self, sigma_mps: f64) {
+        self.nav.forget_velocity(sigma_mps);
+        self.v.rows_mut(3, 3).fill(0.0);
     }
 
     /// Takes the bias-free navigation-error estimate x̄ out of the state

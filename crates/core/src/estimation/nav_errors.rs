@@ -182,6 +182,17 @@ impl NavErrors {
         }
     }
 
+    /// The velocity error made unknown: σ `sigma_mps` per axis,
+    /// uncorrelated with every other state, mean zero.
+    pub fn forget_velocity(&mut self, sigma_mps: f64) {
+        for i in 3..6 {
+            self.x[i] = 0.0;
+            self.p.row_mut(i).fill(0.0);
+            self.p.column_mut(i).fill(0.0);
+            self.p[(i, i)] = sigma_mps * sigma_mps;
+        }
+    }
+
     /// Takes the navigation errors' estimate out (for feedback into the
     /// navigation); the wander and integral states stay, being open loop.
     pub fn take_navigation(&mut self) -> [f64; NAV] {

@@ -4,21 +4,40 @@
 
 use nalgebra::{Matrix3, Matrix6};
 
-use crate::model::params::{paper_magnitude, Group};
+use crate::model::grade::Grade;
+use crate::model::params::Group;
 use crate::model::PARAMETERS;
 use crate::nav::Site;
 
-/// Prior 1-σ of one parameter family, SI: `scale` times the seed paper's
-/// magnitude for it.
-pub fn family_prior(scale: f64, group: Group) -> f64 {
-    scale * paper_magnitude(group)
+/// What the priors are made of: the unit's grade, and how many of its
+/// typical magnitudes one prior σ spans.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Priors {
+    pub scale: f64,
+    pub grade: Grade,
+}
+
+impl Priors {
+    /// Navigation-grade priors `scale` magnitudes wide.
+    pub fn navigation(scale: f64) -> Self {
+        Priors {
+            scale,
+            grade: Grade::Navigation,
+        }
+    }
+}
+
+/// Prior 1-σ of one parameter family, SI: `scale` times the grade's
+/// magnitude for it (the seed paper's for navigation units).
+pub fn family_prior(priors: Priors, group: Group) -> f64 {
+    priors.scale * priors.grade.magnitude(group)
 }
 
 /// Prior 1-σ of the 24 parameters, SI.
-pub fn prior_sigma(scale: f64) -> Vec<f64> {
+pub fn prior_sigma(priors: Priors) -> Vec<f64> {
     PARAMETERS
         .iter()
-        .map(|p| family_prior(scale, p.group))
+        .map(|p| family_prior(priors, p.group))
         .collect()
 }
 
@@ -26,9 +45,9 @@ pub fn prior_sigma(scale: f64) -> Vec<f64> {
 /// left after alignment is what the residual biases imply (tilt ≈ δb_a/g,
 /// heading ≈ δb_g,E/ω_ie,N); the bounds are three priors wide, so the
 /// prior adds no information the run must supply. The unit starts at rest.
-pub(crate) fn initial_navigation_covariance(site: &Site, prior_scale: f64) -> Matrix6<f64> {
-    let tilt = 3.0 * family_prior(prior_scale, Group::AccelBias) / site.gravity();
-    let heading = (3.0 * family_prior(prior_scale, Group::GyroBias) / site.omega_ie_n().y).min(0.1);
+pub(crate) fn initial_navigation_covariance(site: &Site, priors: Priors) -> Matrix6<f64> {
+    let tilt = (3.0 * family_prior(priors, Group::AccelBias) / site.gravity()).min(0.1);
+    let heading = (3.0 * family_prior(priors, Group::GyroBias) / site.omega_ie_n().y).min(0.1);
     let mut p0 = Matrix6::zeros();
     for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
         p0[(i, i)] = s * s;
@@ -38,8 +57,8 @@ pub(crate) fn initial_navigation_covariance(site: &Site, prior_scale: f64) -> Ma
 
 /// Information (inverse covariance) of the start attitude error under
 /// `initial_navigation_covariance`; `None` if that were singular.
-pub(crate) fn start_attitude_information(site: &Site, prior_scale: f64) -> Option<Matrix3<f64>> {
-    initial_navigation_covariance(site, prior_scale)
+pub(crate) fn start_attitude_information(site: &Site, priors: Priors) -> Option<Matrix3<f64>> {
+    initial_navigation_covariance(site, priors)
         .fixed_view::<3, 3>(0, 0)
         .into_owned()
         .try_inverse()

@@ -3,11 +3,13 @@
 //! that lie outside it.
 
 pub mod effects;
+pub mod grade;
 pub mod params;
 pub mod thermal;
 pub mod units;
 
 pub use effects::Effects;
+pub use grade::Grade;
 pub use params::{bias_parameter, ErrorParameters, Group, ParameterInfo, N_PARAMS, PARAMETERS};
 pub use thermal::{TemperatureHistory, ThermalTruth};
 pub mod error_model;
