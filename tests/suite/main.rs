@@ -49,6 +49,7 @@ mod noise_real_sensors;
 mod plan_attitude;
 mod process_kill;
 mod psins_import;
+mod real_xsens;
 mod run_store_s3;
 mod scale_out;
 mod sim_closed_form;
