@@ -3,6 +3,7 @@
 //! formats imported as runs (`psins`).
 
 pub mod data;
+pub mod mcap;
 pub mod meta;
 pub mod psins;
 pub mod run;
