@@ -1,9 +1,10 @@
 //! `sinscal import`: logs of other formats written as runs of the contract.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use sinscal_core::io::data::DataFormat;
 use sinscal_core::io::imu_tk::{import_imu_tk, ImuTkImport, NominalTriad};
+use sinscal_core::io::mcap::{import_mcap, Clock, McapImport};
 use sinscal_core::io::psins::import_psins;
 use sinscal_core::nav::Site;
 
@@ -13,10 +14,41 @@ pub enum ImportCommand {
     /// whole counts a record and an optional time dither in µs): the run's
     /// increments (rad, m/s) and run.json with its site, g and rate.
     Psins(PsinsArgs),
+    /// A ROS 2 recording (MCAP, uncompressed chunks) of one
+    /// `sensor_msgs/msg/Imu` topic in CDR: the run's rates (rad/s, m/s²) at
+    /// the header stamps, and run.json with the given site and the rate
+    /// from the median step.
+    Mcap(McapArgs),
     /// An imu_tk recording (two text files of `t x y z`, accelerometer and
     /// gyro, raw samples at the same stamps): run.csv of the counts as
     /// recorded and run.json with the datasheet's nominal conversion.
     ImuTk(ImuTkArgs),
+}
+
+#[derive(clap::Args)]
+pub struct McapArgs {
+    /// The recording (.mcap).
+    pub recording: PathBuf,
+    /// The Imu topic.
+    #[arg(long, default_value = "/imu")]
+    pub topic: String,
+    /// The folder to write run.csv and run.json into.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The unit's serial in run.json; default: MCAP- and the file's name.
+    #[arg(long, visible_alias = "serial")]
+    pub unit_serial: Option<String>,
+    /// Where the unit stood, deg (a recording does not say).
+    #[arg(long, allow_hyphen_values = true)]
+    pub latitude: f64,
+    #[arg(long, allow_hyphen_values = true)]
+    pub longitude: f64,
+    /// Ellipsoidal height, m.
+    #[arg(long, allow_hyphen_values = true)]
+    pub height: f64,
+    /// Measured local gravity, m/s² (SPEC §1); default: the formula's.
+    #[arg(long)]
+    pub gravity: Option<f64>,
 }
 
 #[derive(clap::Args)]
@@ -128,23 +160,10 @@ pub fn run_import(c: &ImportCommand) -> anyhow::Result<()> {
     match c {
         ImportCommand::ImuTk(a) => run_imu_tk(a),
         ImportCommand::Psins(a) => {
-            let serial = a.unit_serial.clone().unwrap_or_else(|| {
-                let stem = a
-                    .log
-                    .file_stem()
-                    .map_or("log".into(), |s| s.to_string_lossy().into_owned());
-                let clean: String = stem
-                    .chars()
-                    .map(|c| {
-                        if c.is_ascii_alphanumeric() || "-_.".contains(c) {
-                            c
-                        } else {
-                            '-'
-                        }
-                    })
-                    .collect();
-                format!("PSINS-{clean}")
-            });
+            let serial = a
+                .unit_serial
+                .clone()
+                .unwrap_or_else(|| default_serial("PSINS", &a.log));
             let run = import_psins(&a.log, &a.out, a.format, &serial)?;
             let h = &run.header;
             println!(
@@ -172,5 +191,61 @@ pub fn run_import(c: &ImportCommand) -> anyhow::Result<()> {
             );
             Ok(())
         }
+        ImportCommand::Mcap(a) => run_mcap(a),
     }
+}
+
+/// `PREFIX-` and the file's name, made a valid serial.
+fn default_serial(prefix: &str, file: &Path) -> String {
+    let stem = file
+        .file_stem()
+        .map_or("log".into(), |s| s.to_string_lossy().into_owned());
+    let clean: String = stem
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                c
+            } else {
+                '-'
+            }
+        })
+        .collect();
+    format!("{prefix}-{clean}")
+}
+
+fn run_mcap(a: &McapArgs) -> anyhow::Result<()> {
+    let serial = a
+        .unit_serial
+        .clone()
+        .unwrap_or_else(|| default_serial("MCAP", &a.recording));
+    let site = Site {
+        gravity_mps2: a.gravity,
+        ..Site::new(a.latitude, a.longitude, a.height)
+    };
+    let options = McapImport {
+        topic: &a.topic,
+        unit_serial: &serial,
+        site,
+    };
+    let run = import_mcap(&a.recording, &a.out, &options)?;
+    let s = &run.source;
+    println!(
+        "{} messages of {} at {} Hz (median step {} ns, {:.1} s), frame {:?}, times from {}",
+        s.messages,
+        s.topic,
+        run.sample_rate_hz,
+        s.median_step_ns,
+        run.duration_s,
+        s.frame_id,
+        match s.clock {
+            Clock::HeaderStamp => "the header stamps",
+            Clock::LogTime => "the log time (header stamps zero)",
+        }
+    );
+    eprintln!(
+        "wrote {} and {}",
+        run.data.display(),
+        run.metadata.display()
+    );
+    Ok(())
 }

@@ -42,6 +42,7 @@ mod diagnose_hand_turns;
 mod diagnose_nav_turns;
 mod diagnose_report;
 mod diagnose_unexplained;
+mod import_mcap;
 mod io_data;
 mod model_check;
 mod noise_analysis;
