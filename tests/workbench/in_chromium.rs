@@ -197,6 +197,22 @@ async fn the_workbench_in_chromium() {
     .await;
     let facts = b.find("#certificate-facts").await.text().await;
     assert!(facts.contains("RLG-A") && facts.contains("NAV-1") && facts.contains("sinscal "));
+    // A draft until approved; the button issues its number.
+    assert!(b
+        .find("#certificate-number")
+        .await
+        .text()
+        .await
+        .contains("DRAFT"));
+    assert_eq!(
+        b.find_all("#certificate-parameters tbody tr").await.len(),
+        24
+    );
+    b.find("form#approve button").await.click().await;
+    b.wait_for("#approved-by", LOAD).await;
+    let number = b.find("#certificate-number").await.text().await;
+    assert!(number.contains("SC-000001"), "{number}");
+    shoot(&b, "certificate-approved").await;
     visit(&b, &origin, &format!("/runs/{run_id}/noise"), "noise").await;
     // One chart per sensor axis.
     assert_eq!(
