@@ -3,7 +3,8 @@ CREATE TABLE certificates (
     seq            BIGINT PRIMARY KEY,
     number         TEXT NOT NULL UNIQUE,
     run_id         TEXT NOT NULL,
-    job_id         TEXT NOT NULL UNIQUE,
+    result_seq     BIGINT NOT NULL,
+    job_id         TEXT NOT NULL,
     unit_serial    TEXT NOT NULL,
     issued_at      BIGINT NOT NULL,
     approved_by    TEXT NOT NULL,
@@ -11,4 +12,4 @@ CREATE TABLE certificates (
     approver_role  TEXT NOT NULL CHECK (approver_role IN ('engineer', 'admin')),
     approved_at    BIGINT NOT NULL
 );
-CREATE INDEX certificates_run ON certificates (run_id, seq);
+CREATE UNIQUE INDEX certificates_result ON certificates (run_id, result_seq);

@@ -12,7 +12,8 @@ CREATE TABLE certificates (
     seq            INTEGER PRIMARY KEY,      -- 1, 2, …: the number's digits
     number         TEXT NOT NULL UNIQUE,     -- e.g. SC-000042
     run_id         TEXT NOT NULL,
-    job_id         TEXT NOT NULL UNIQUE,     -- the result it certifies (its calibration job)
+    result_seq     INTEGER NOT NULL,         -- the result it certifies: its number among the run's results
+    job_id         TEXT NOT NULL,            -- and its calibration job (a run calibrated again keeps its job)
     unit_serial    TEXT NOT NULL,
     issued_at      INTEGER NOT NULL,
     approved_by    TEXT NOT NULL,            -- the approving token's label, else its id
@@ -20,4 +21,4 @@ CREATE TABLE certificates (
     approver_role  TEXT NOT NULL CHECK (approver_role IN ('engineer', 'admin')),
     approved_at    INTEGER NOT NULL
 );
-CREATE INDEX certificates_run ON certificates (run_id, seq);
+CREATE UNIQUE INDEX certificates_result ON certificates (run_id, result_seq);

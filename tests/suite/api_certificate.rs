@@ -173,6 +173,12 @@ async fn a_certificate_is_approved_once_numbered_and_printed_on_one_page() {
     // its σ, and the approver.
     let bytes = pdf(&app, &engineer, &run).await;
     assert!(bytes.starts_with(b"%PDF-"));
+    // Kept beside the workbench's screenshots, to be looked at.
+    std::fs::write(
+        common::browser::screenshot_path("certificate-approved.pdf"),
+        &bytes,
+    )
+    .unwrap();
     assert_eq!(rendered_pages(&bytes), 1);
     let text = pdf_text(&bytes);
     for needle in [
@@ -211,7 +217,8 @@ async fn a_certificate_is_approved_once_numbered_and_printed_on_one_page() {
     assert_eq!(job["state"], "succeeded");
     let redrafted = app.get_json(&path).await;
     assert_eq!(redrafted["status"], "draft", "{redrafted}");
-    assert_ne!(redrafted["result_job_id"], issued["result_job_id"]);
+    assert_eq!(redrafted["result_seq"], 2);
+    assert_eq!(issued["result_seq"], 1);
     assert_eq!(redrafted["superseded"][0]["number"], number.as_str());
     let r = post(&app, &engineer, &format!("{path}/approve")).await;
     assert_eq!(r.status(), StatusCode::CREATED);

@@ -109,7 +109,7 @@ pub(crate) async fn certificate_of(st: &AppState, run: RunRow) -> Result<Certifi
         .run_certificates(id)
         .await?
         .into_iter()
-        .partition(|c| c.job_id == result_version.job_id);
+        .partition(|c| c.result_seq == result_version.seq);
     Ok(Certificate {
         meta: RunMetadata::from_json(run.file.metadata.as_bytes()).ok(),
         run,
@@ -158,10 +158,10 @@ struct CertificateView {
     unit_serial: String,
     /// `approved` (issued, valid) or `draft` (not valid).
     status: &'static str,
-    /// The result certified: its calibration job.
-    result_job_id: JobId,
-    /// The result's number among the run's results (1 the first).
+    /// The result certified: its number among the run's results (1 the
+    /// first), and its calibration job.
     result_seq: i64,
+    result_job_id: JobId,
     verdict: Option<&'static str>,
     number: Option<String>,
     issued_at: Option<String>,
@@ -177,6 +177,7 @@ struct CertificateView {
 #[derive(Serialize)]
 struct SupersededView {
     number: String,
+    result_seq: i64,
     result_job_id: JobId,
     issued_at: String,
     approved_by: String,
@@ -207,6 +208,7 @@ impl From<&Certificate> for CertificateView {
                 .iter()
                 .map(|e| SupersededView {
                     number: e.number.clone(),
+                    result_seq: e.result_seq,
                     result_job_id: e.job_id,
                     issued_at: rfc3339(e.issued_at),
                     approved_by: e.approved_by.clone(),

@@ -208,9 +208,9 @@ impl Sheet {
                 .iter()
                 .map(|e| {
                     format!(
-                        "{} (result job {}, issued {})",
+                        "{} (result no. {}, issued {})",
                         e.number,
-                        e.job_id,
+                        e.result_seq,
                         time(e.issued_at)
                     )
                 })

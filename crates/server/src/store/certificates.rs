@@ -27,7 +27,10 @@ pub struct CertificateRow {
     pub seq: i64,
     pub number: String,
     pub run_id: RunId,
-    /// The result it certifies: its calibration job.
+    /// The result it certifies: its number among the run's results (see
+    /// [`Store::result_versions`]), and its calibration job (which a run
+    /// calibrated again keeps: the job alone does not name the result).
+    pub result_seq: i64,
     pub job_id: JobId,
     pub unit_serial: String,
     pub issued_at: i64,
@@ -59,12 +62,15 @@ pub struct Approver<'a> {
     pub role: Role,
 }
 
-const COLUMNS: &str = "seq, number, run_id, job_id, unit_serial, issued_at, approved_by, \
+const COLUMNS: &str =
+    "seq, number, run_id, result_seq, job_id, unit_serial, issued_at, approved_by, \
                        approver_token, approver_role, approved_at";
 
-/// The current result's job and verdict, read under the run's locks.
+/// The current result's number, job and verdict, read under the run's
+/// locks.
 #[derive(FromRow)]
 struct Current {
+    result_seq: i64,
     job_id: JobId,
     verdict: Option<String>,
 }
@@ -92,18 +98,22 @@ impl Store {
         let mut tx = self.begin_write().await?;
         lock_key(self.backend, &mut tx, &run_key(run_id)).await?;
         lock_key(self.backend, &mut tx, &unit_key(&serial)).await?;
-        let current: Option<Current> =
-            sqlx::query_as("SELECT job_id, verdict FROM results WHERE run_id = $1")
-                .bind(run_id)
-                .fetch_optional(&mut *tx)
-                .await?;
+        let current: Option<Current> = sqlx::query_as(
+            "SELECT (SELECT COUNT(*) FROM superseded_results s WHERE s.run_id = $1) + 1
+                        AS result_seq, job_id, verdict
+                 FROM results WHERE run_id = $1",
+        )
+        .bind(run_id)
+        .fetch_optional(&mut *tx)
+        .await?;
         let Some(current) = current else {
             return Ok(Approval::NoResult);
         };
         let existing: Option<CertificateRow> = sqlx::query_as(&format!(
-            "SELECT {COLUMNS} FROM certificates WHERE job_id = $1"
+            "SELECT {COLUMNS} FROM certificates WHERE run_id = $1 AND result_seq = $2"
         ))
-        .bind(current.job_id)
+        .bind(run_id)
+        .bind(current.result_seq)
         .fetch_optional(&mut *tx)
         .await?;
         if let Some(row) = existing {
@@ -125,6 +135,7 @@ impl Store {
             seq,
             number: certificate_number(seq),
             run_id,
+            result_seq: current.result_seq,
             job_id: current.job_id,
             unit_serial: serial,
             issued_at: now,
@@ -134,11 +145,12 @@ impl Store {
             approved_at: now,
         };
         sqlx::query(&format!(
-            "INSERT INTO certificates ({COLUMNS}) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10)"
+            "INSERT INTO certificates ({COLUMNS}) VALUES ($1, $2, $3, $4, $5, $6, $7, $8, $9, $10, $11)"
         ))
         .bind(row.seq)
         .bind(&row.number)
         .bind(row.run_id)
+        .bind(row.result_seq)
         .bind(row.job_id)
         .bind(&row.unit_serial)
         .bind(row.issued_at)
@@ -231,7 +243,7 @@ mod tests {
         for r in &runs {
             match store.approve_certificate(r.run_id, admin, 5).await.unwrap() {
                 Approval::Issued(c) => {
-                    assert_eq!(c.job_id, r.job_id);
+                    assert_eq!((c.result_seq, c.job_id), (1, r.job_id));
                     assert_eq!(c.approved_by, "no-such-token");
                     numbers.push(c.number);
                 }
