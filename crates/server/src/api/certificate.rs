@@ -17,15 +17,13 @@ use serde::Serialize;
 
 use super::auth::{roles, Auth, Caller};
 use super::certificate_pdf;
-use super::certificate_sheet::Sheet;
+pub(crate) use super::certificate_sheet::Certificate;
 use super::error::ApiError;
-use super::units::{unit_repeatability, Repeatability};
+use super::units::unit_repeatability;
 use super::{parse_id, rfc3339, AppState};
 use crate::store::{
     now_ms, Approval, Approver, CertificateRow, JobId, ResultVersion, Role, RunId, RunRow,
-    StoredVerdict,
 };
-use sinscal_core::accept::{ProductLimits, VerdictStatus};
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::io::meta::RunMetadata;
 
@@ -34,43 +32,6 @@ pub fn router() -> Router<AppState> {
         .route("/runs/{id}/certificate", get(get_certificate))
         .route("/runs/{id}/certificate.pdf", get(get_pdf))
         .route("/runs/{id}/certificate/approve", post(approve))
-}
-
-/// Everything a certificate states, read once for the page, the JSON and
-/// the PDF.
-pub(crate) struct Certificate {
-    pub run: RunRow,
-    pub meta: Option<RunMetadata>,
-    /// The result certified: the run's current one.
-    pub result: CalibrationResult,
-    pub result_version: ResultVersion,
-    pub verdict: Option<StoredVerdict>,
-    pub limits: Option<ProductLimits>,
-    /// The unit's runs up to this one against the product's limits.
-    pub repeatability: Repeatability,
-    /// The certificate issued for this result; `None`: a draft.
-    pub issued: Option<CertificateRow>,
-    /// Certificates issued for the run's earlier (superseded) results.
-    pub earlier: Vec<CertificateRow>,
-}
-
-impl Certificate {
-    /// Whether the result may be approved now.
-    pub fn approvable(&self) -> bool {
-        self.issued.is_none()
-            && self
-                .verdict
-                .as_ref()
-                .is_some_and(|v| v.status() == VerdictStatus::Accepted)
-    }
-
-    pub fn sheet(&self) -> Sheet {
-        Sheet::of(self)
-    }
-
-    pub fn pdf(&self) -> Vec<u8> {
-        certificate_pdf::render(&self.sheet())
-    }
 }
 
 /// The certificate of `run`'s current result; 404 while it has none.
@@ -250,7 +211,11 @@ async fn get_pdf(
 /// number (`draft` until approved).
 pub(crate) fn pdf_response(c: &Certificate) -> Response {
     let name = c.issued.as_ref().map_or("draft", |i| i.number.as_str());
-    let mut resp = ([(header::CONTENT_TYPE, "application/pdf")], c.pdf()).into_response();
+    let mut resp = (
+        [(header::CONTENT_TYPE, "application/pdf")],
+        certificate_pdf::render(&c.sheet()),
+    )
+        .into_response();
     let disposition = format!("inline; filename=\"{}-{name}.pdf\"", c.run.unit_serial);
     if let Ok(v) = HeaderValue::from_str(&disposition) {
         resp.headers_mut().insert(header::CONTENT_DISPOSITION, v);

@@ -1,12 +1,49 @@
 //! A certificate as the text it prints: every fact, the approval block and
 //! the parameter table already worded and formatted, so that the page and
-//! the PDF say exactly the same thing (each only lays it out).
+//! the PDF say exactly the same thing (each only lays it out); and
+//! [`Certificate`], everything it is made from.
 
-use super::certificate::Certificate;
+use super::units::Repeatability;
+use crate::store::{CertificateRow, ResultVersion, RunRow, StoredVerdict};
 use sinscal_core::accept::{LimitKind, ParameterCheck};
+use sinscal_core::accept::{ProductLimits, VerdictStatus};
+use sinscal_core::calib::CalibrationResult;
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::model::PARAMETERS;
 use sinscal_core::sim::scheme::SchemeRef;
+
+/// Everything a certificate states, read once for the page, the JSON and
+/// the PDF.
+pub(crate) struct Certificate {
+    pub run: RunRow,
+    pub meta: Option<RunMetadata>,
+    /// The result certified: the run's current one.
+    pub result: CalibrationResult,
+    pub result_version: ResultVersion,
+    pub verdict: Option<StoredVerdict>,
+    pub limits: Option<ProductLimits>,
+    /// The unit's runs up to this one against the product's limits.
+    pub repeatability: Repeatability,
+    /// The certificate issued for this result; `None`: a draft.
+    pub issued: Option<CertificateRow>,
+    /// Certificates issued for the run's earlier (superseded) results.
+    pub earlier: Vec<CertificateRow>,
+}
+
+impl Certificate {
+    /// Whether the result may be approved now.
+    pub fn approvable(&self) -> bool {
+        self.issued.is_none()
+            && self
+                .verdict
+                .as_ref()
+                .is_some_and(|v| v.status() == VerdictStatus::Accepted)
+    }
+
+    pub fn sheet(&self) -> Sheet {
+        Sheet::of(self)
+    }
+}
 
 /// The words of a draft, wherever the number would be.
 pub const DRAFT: &str = "DRAFT - not valid until approved";
