@@ -184,7 +184,11 @@ impl Page {
 
     /// "DRAFT" across the page in light grey, under everything else.
     fn watermark(&mut self) {
-        let (cos, sin) = (0.7071_f32, 0.7071_f32);
+        // 45°.
+        let (cos, sin) = (
+            std::f32::consts::FRAC_1_SQRT_2,
+            std::f32::consts::FRAC_1_SQRT_2,
+        );
         self.c.set_fill_gray(0.88);
         self.c.begin_text();
         self.c.set_font(BOLD, 110.0);
