@@ -15,6 +15,7 @@ mod thermal_support;
 
 mod api_acceptance;
 mod api_calibration;
+mod api_certificate;
 mod api_compensation;
 mod api_design;
 mod api_diagnose;

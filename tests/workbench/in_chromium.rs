@@ -55,6 +55,29 @@ async fn shoot(b: &Browser, name: &str) {
         .await;
 }
 
+/// How many pages the current page prints on (Chromium's print to PDF,
+/// with the page's own `@page` size; pdfinfo counts them).
+async fn printed_pages(b: &Browser) -> usize {
+    use base64::Engine;
+    let printed = b
+        .cdp("Page.printToPDF", json!({"preferCSSPageSize": true}))
+        .await;
+    let pdf = base64::engine::general_purpose::STANDARD
+        .decode(printed["data"].as_str().expect("printToPDF's data"))
+        .unwrap();
+    let path = screenshot_path("workbench-certificate-print.pdf");
+    std::fs::write(&path, pdf).unwrap();
+    let info = std::process::Command::new("pdfinfo")
+        .arg(&path)
+        .output()
+        .expect("pdfinfo (poppler-utils; scripts/test installs it)");
+    let info = String::from_utf8_lossy(&info.stdout).into_owned();
+    info.lines()
+        .find_map(|l| l.strip_prefix("Pages:"))
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap_or_else(|| panic!("pdfinfo: {info}"))
+}
+
 async fn sign_in(b: &Browser, origin: &str, token: &str) {
     b.goto(&format!("{origin}/")).await;
     b.wait_for("input#token", LOAD).await.send_keys(token).await;
@@ -197,6 +220,27 @@ async fn the_workbench_in_chromium() {
     .await;
     let facts = b.find("#certificate-facts").await.text().await;
     assert!(facts.contains("RLG-A") && facts.contains("NAV-1") && facts.contains("sinscal "));
+    // A draft until approved; the button issues its number.
+    assert!(b
+        .find("#certificate-number")
+        .await
+        .text()
+        .await
+        .contains("DRAFT"));
+    assert_eq!(
+        b.find_all("#certificate-parameters tbody tr").await.len(),
+        24
+    );
+    b.find("form#approve button").await.click().await;
+    b.wait_for("#approved-by", LOAD).await;
+    let number = b.find("#certificate-number").await.text().await;
+    assert!(number.contains("SC-000001"), "{number}");
+    shoot(&b, "certificate-approved").await;
+    assert_eq!(
+        printed_pages(&b).await,
+        1,
+        "the certificate prints on one A4 page"
+    );
     visit(&b, &origin, &format!("/runs/{run_id}/noise"), "noise").await;
     // One chart per sensor axis.
     assert_eq!(

@@ -4,6 +4,9 @@
 
 pub(crate) mod adopt;
 pub mod auth;
+pub(crate) mod certificate;
+mod certificate_pdf;
+pub(crate) mod certificate_sheet;
 pub(crate) mod compensation;
 pub mod error;
 mod jobs;
@@ -82,6 +85,7 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .route("/openapi.yaml", get(openapi))
         .merge(runs::router())
         .merge(adopt::router())
+        .merge(certificate::router())
         .merge(compensation::router())
         .merge(noise::router())
         .merge(jobs::router())

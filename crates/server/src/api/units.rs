@@ -12,7 +12,7 @@ use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
-use crate::store::{JobCounts, JobId, Review, RunId, UnitFilter, UnitSummary};
+use crate::store::{JobCounts, JobId, ParamSpread, Review, RunId, UnitFilter, UnitSummary};
 use sinscal_core::accept::{LimitKind, ProductLimits, VerdictStatus};
 use sinscal_core::io::meta::validate_product;
 use sinscal_core::io::UnitSerial;
@@ -329,7 +329,20 @@ async fn repeatability(
         return Err(ApiError::NotFound(format!("no unit {serial}")));
     };
     let limits = unit_limits(&st, unit.product.as_deref()).await?;
-    let mut rows = st.store.repeatability(&serial, since, q.last).await?;
+    let rows = st.store.repeatability(&serial, since, q.last).await?;
+    Ok(Json(unit_repeatability(&st, serial, rows, limits.as_ref())))
+}
+
+/// The spread of a unit's runs (`rows`, as the store read them), each
+/// parameter against `limits`' `max_repeatability` when it sets one, else
+/// the server's tolerance: the API's answer, and what a calibration
+/// certificate states.
+pub(crate) fn unit_repeatability(
+    st: &AppState,
+    serial: UnitSerial,
+    mut rows: Vec<ParamSpread>,
+    limits: Option<&ProductLimits>,
+) -> Repeatability {
     // Canonical order (SPEC §2), not alphabetical.
     let order = |name: &str| {
         PARAMETERS
@@ -343,7 +356,7 @@ async fn repeatability(
         .into_iter()
         .map(|r| {
             let std_dev = (r.n >= 2).then(|| (r.sum_sq.max(0.0) / (r.n - 1) as f64).sqrt());
-            let product_limit = limits.as_ref().and_then(|l| {
+            let product_limit = limits.and_then(|l| {
                 let i = order(&r.name);
                 (i < PARAMETERS.len())
                     .then(|| l.of(i).get(LimitKind::MaxRepeatability))
@@ -388,10 +401,10 @@ async fn repeatability(
         .filter(|p| p.flagged)
         .map(|p| p.name.clone())
         .collect();
-    Ok(Json(Repeatability {
+    Repeatability {
         unit_serial: serial,
         runs,
         parameters,
         flagged,
-    }))
+    }
 }

@@ -29,8 +29,11 @@
 //!   in its row and the unit's (on any connection: a leaf but for
 //!   `spread`, `error`);
 //! - `products`: product types, their revisions, and the verdicts judged
-//!   again when one changes.
+//!   again when one changes;
+//! - `certificates`: calibration certificates, one per approved result,
+//!   numbered in the order they were issued.
 
+mod certificates;
 mod db;
 mod dialect;
 mod document;
@@ -49,6 +52,7 @@ mod tokens;
 mod verdicts;
 mod versions;
 
+pub use certificates::{certificate_number, Approval, Approver, CertificateRow};
 pub use db::{now_ms, DatabaseUrl, Store};
 pub use dialect::{Backend, JOBS_CHANNEL};
 pub use document::Stored;

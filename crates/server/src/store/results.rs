@@ -329,6 +329,33 @@ impl Store {
         Ok(acc.finish())
     }
 
+    /// Per-parameter spread over a unit's calibrated runs up to and
+    /// including `run_time` (ties by run id, up to `run_id`): the runs a
+    /// certificate of that run states its repeatability over, which later
+    /// runs do not change.
+    pub async fn repeatability_through(
+        &self,
+        serial: &UnitSerial,
+        run_time: i64,
+        run_id: RunId,
+    ) -> Result<Vec<ParamSpread>, StoreError> {
+        let blobs: Vec<Vec<u8>> = sqlx::query_scalar(
+            "SELECT param_values FROM results
+             WHERE unit_serial = $1 AND (run_time < $2 OR (run_time = $2 AND run_id <= $3))
+             ORDER BY run_time, run_id",
+        )
+        .bind(serial.as_str())
+        .bind(run_time)
+        .bind(run_id)
+        .fetch_all(&self.read)
+        .await?;
+        let mut acc = SpreadAccumulator::default();
+        for b in &blobs {
+            acc.push(b);
+        }
+        Ok(acc.finish())
+    }
+
     /// Stores a finished result for a run directly (benchmark seeding and
     /// tests of the statistics): a run and a succeeded job in one
     /// transaction.

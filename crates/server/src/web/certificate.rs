@@ -1,19 +1,25 @@
-//! The calibration certificate of a run: one printable page saying which
-//! unit, which data (its sha256), who recorded it where, what sinscal
-//! version estimated what, within which limits, and the verdict.
+//! The calibration certificate of a run's current result: one A4 page
+//! (print styles in the style sheet) saying which unit, which data (its
+//! sha256), where and how it was recorded, what sinscal version estimated
+//! what within which limits, how repeatable the unit is, the verdict, and
+//! who approved it. A draft until approved, with the approve button for an
+//! engineer or admin; the same text as a PDF the server makes. The text
+//! is the API's (`certificate_sheet`), so page and PDF cannot differ.
 
 use axum::extract::{Path, State};
-use axum::response::Html;
-use maud::html;
+use axum::response::{Html, Response};
+use axum::Form;
+use maud::{html, Markup};
 
-use super::access::PageCaller;
+use super::access::{FormCaller, PageCaller};
 use super::error::PageError;
-use super::format;
 use super::layout;
-use super::run::{parameter_table, parsed_result, product_limits, readable_run};
+use super::run::readable_run;
+use super::session::{see_other, CsrfForm};
 use crate::api::auth::roles;
+use crate::api::certificate::{approve_certificate, certificate_of, pdf_response, Certificate};
+use crate::api::certificate_sheet::{Sheet, DRAFT, HEADS};
 use crate::api::AppState;
-use sinscal_core::io::meta::RunMetadata;
 
 pub async fn page(
     State(st): State<AppState>,
@@ -21,48 +27,101 @@ pub async fn page(
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = readable_run(&st, &session, id).await?;
-    let result = parsed_result(&st, run.id).await?.ok_or_else(|| {
-        PageError::not_found(format!("run {} has no result: no certificate yet", run.id))
-    })?;
-    let meta = RunMetadata::from_json(run.file.metadata.as_bytes()).ok();
-    let verdict = run.verdict()?;
-    let limits = product_limits(&st, verdict.as_ref()).await?;
-    let completed = st
-        .store
-        .get_job(run.job_id)
-        .await?
-        .and_then(|j| j.finished_at);
-    let (word, class) = format::verdict(verdict.as_ref().map(|v| v.status()));
-    let body = html! {
-        article.certificate {
-            h1 { "Calibration certificate" }
-            dl.facts #certificate-facts {
-                dt { "Unit" } dd { strong { (run.unit_serial) } }
-                dt { "Product" } dd { (meta.as_ref().and_then(|m| m.product.as_deref()).unwrap_or("—")) }
-                dt { "Run" } dd { code { (run.id) } }
-                dt { "Recorded" } dd { (format::time(run.run_time)) }
-                dt { "Calibrated" } dd { (completed.map(format::time).unwrap_or_else(|| "—".into())) }
-                dt { "Station" } dd { (meta.as_ref().and_then(|m| m.station.as_deref()).unwrap_or("—")) }
-                dt { "Operator" } dd { (meta.as_ref().and_then(|m| m.operator.as_deref()).unwrap_or("—")) }
-                dt { "Raw data sha256" } dd { code { (run.file.sha256) } }
-                dt { "Estimator" } dd { (result.estimator) ", model " (result.model) ", " (result.passes) " passes over " (format::sig(result.duration_s / 3600.0, 3)) " h" }
-                dt { "Software" } dd { "sinscal " (env!("CARGO_PKG_VERSION")) }
-                dt { "Verdict" } dd { span class={ "badge " (class) } { (word) }
-                    @if let Some(v) = &verdict { @if let (Some(p), Some(r)) = (&v.product, v.revision) { " against product type " (p) " revision " (r) } } }
-                @if let Some(c) = &result.model_check { dt { "Model check" } dd { @if c.adequate { "adequate" } @else { "inadequate" } } }
-            }
-            h2 { "Parameters (1σ from the estimator)" }
-            (parameter_table(&result, limits.as_ref(), verdict.as_ref().map(|v| &v.verdict)))
-            p.muted { "Sign convention, units and the error model: sinscal's contract, SPEC §2. Issued " (format::time(crate::store::now_ms())) "." }
-            p.noprint { a href={ "/runs/" (run.id) } { "Back to the run" } }
-        }
+    let c = certificate_of(&st, run).await?;
+    let sheet = c.sheet();
+    let title = match &sheet.number {
+        Some(n) => format!("Certificate {n}"),
+        None => format!("Certificate {} (draft)", c.run.unit_serial),
     };
     Ok(Html(
-        layout::page(
-            &format!("Certificate {}", run.unit_serial),
-            Some(&session),
-            body,
-        )
-        .into_string(),
+        layout::page(&title, Some(&session), body(&c, &sheet, &session)).into_string(),
     ))
+}
+
+fn body(c: &Certificate, sheet: &Sheet, session: &PageCaller<roles::Engineer>) -> Markup {
+    let id = c.run.id;
+    html! {
+        article.certificate.draft[sheet.number.is_none()] {
+            header.certificate-head {
+                h1 { "Calibration certificate" }
+                p #certificate-number {
+                    @match &sheet.number {
+                        Some(n) => { "No. " strong { (n) } }
+                        None => strong.fail { (DRAFT) },
+                    }
+                    br;
+                    "Issued " span #certificate-issued { (sheet.issued.as_deref().unwrap_or("not issued")) }
+                }
+            }
+            dl.facts #certificate-facts {
+                @for (label, value) in &sheet.facts {
+                    dt { (label) } dd { @if label.ends_with("sha256") || *label == "Run" { code { (value) } } @else { (value) } }
+                }
+            }
+            section #approval .approval {
+                @match &sheet.approval {
+                    Some((who, role, when)) => p { strong { "Approved" } " by " strong #approved-by { (who) } " (" (role) "), " (when) },
+                    None => {
+                        p { strong.fail { "DRAFT" } " — not approved: not a valid certificate." }
+                        @if c.approvable() {
+                            form.inline.noprint #approve method="post" action={ "/runs/" (id) "/certificate/approve" } {
+                                input type="hidden" name="csrf" value=(session.csrf());
+                                button.primary type="submit" { "Approve and issue" }
+                            }
+                        } @else {
+                            p.muted.noprint { "Only a result whose verdict is accepted can be approved." }
+                        }
+                    }
+                }
+            }
+            h2 { "Parameters (1σ from the estimator)" }
+            table #certificate-parameters {
+                thead { tr { @for h in HEADS { th { (h) } } } }
+                tbody {
+                    @for row in &sheet.rows {
+                        tr class=[(row.check == "fail" || row.repeat_check == "fail").then_some("fail")] {
+                            @for (i, cell) in row.cells().iter().enumerate() {
+                                @if (1..=2).contains(&i) || (4..=5).contains(&i) || (7..=8).contains(&i) { td.num { (cell) } } @else { td { (cell) } }
+                            }
+                        }
+                    }
+                }
+            }
+            p.muted { "Repeat.: the sample standard deviation over the unit's " (sheet.repeatability_runs) " calibrated run(s) up to this one, against the product type's max_repeatability. Sign convention, units and the error model: sinscal's contract, SPEC §2." }
+            @if !sheet.superseded.is_empty() {
+                p.muted #superseded-certificates { "Earlier results of this run were certified as: " (sheet.superseded.join("; ")) }
+            }
+            p.noprint {
+                a #certificate-pdf href={ "/runs/" (id) "/certificate.pdf" } { "PDF" }
+                " · "
+                a href={ "/runs/" (id) } { "Back to the run" }
+            }
+        }
+    }
+}
+
+/// `GET /runs/{id}/certificate.pdf`: the API's PDF, for the session.
+pub async fn pdf(
+    State(st): State<AppState>,
+    session: PageCaller<roles::Engineer>,
+    Path(id): Path<String>,
+) -> Result<Response, PageError> {
+    let run = readable_run(&st, &session, id).await?;
+    let c = certificate_of(&st, run).await?;
+    Ok(pdf_response(&c))
+}
+
+/// `POST /runs/{id}/certificate/approve`: the approve button, through the
+/// API's own action (CSRF token checked, then the role), then back to the
+/// certificate.
+pub async fn approve(
+    State(st): State<AppState>,
+    sender: FormCaller<roles::Engineer>,
+    Path(id): Path<String>,
+    Form(form): Form<CsrfForm>,
+) -> Result<Response, PageError> {
+    let session = sender.check_csrf(&form.csrf)?;
+    let run = readable_run(&st, &session, id).await?;
+    approve_certificate(&st, run.id, &session.auth).await?;
+    Ok(see_other(&format!("/runs/{}/certificate", run.id)))
 }

@@ -61,6 +61,8 @@ pub fn router(max_body_bytes: u64) -> Router<AppState> {
         .route("/runs/{id}/files/{name}", get(run::download))
         .route("/runs/{id}/{action}", post(run::action))
         .route("/runs/{id}/certificate", get(certificate::page))
+        .route("/runs/{id}/certificate.pdf", get(certificate::pdf))
+        .route("/runs/{id}/certificate/approve", post(certificate::approve))
         .route("/runs/{id}/diagnosis", get(diagnosis::page))
         .route("/runs/{id}/noise", get(noise::page))
         .route("/admin", get(admin::page))
