@@ -17,16 +17,6 @@ pub struct Priors {
     pub grade: Grade,
 }
 
-impl Priors {
-    /// Navigation-grade priors `scale` magnitudes wide.
-    pub fn navigation(scale: f64) -> Self {
-        Priors {
-            scale,
-            grade: Grade::Navigation,
-        }
-    }
-}
-
 /// Prior 1-σ of one parameter family, SI: `scale` times the grade's
 /// magnitude for it (the seed paper's for navigation units).
 pub fn family_prior(priors: Priors, group: Group) -> f64 {
