@@ -182,30 +182,10 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
-    use crate::store::{NewRun, RunFile};
-    use sinscal_core::io::data::DataFormat;
+    use crate::store::NewRun;
 
     fn new_run(serial: &str) -> NewRun {
-        let id = RunId::new();
-        NewRun {
-            run_id: id,
-            job_id: JobId::new(),
-            unit_serial: serial.parse().unwrap(),
-            file: RunFile {
-                sha256: id.to_string(),
-                size_bytes: 0,
-                records: 0,
-                format: DataFormat::Csv,
-                gzip: false,
-                blob_path: format!("runs/x/{id}.csv"),
-                metadata: "{}".into(),
-            },
-            recorded_at: Some(1_000),
-            uploaded_at: 0,
-            max_attempts: 1,
-            uploaded_by: None,
-            product: None,
-        }
+        NewRun::for_test(serial, 1_000, None)
     }
 
     async fn set_verdict(store: &Store, status: &str) {

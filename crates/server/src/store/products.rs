@@ -201,10 +201,9 @@ mod tests {
     use std::collections::BTreeMap;
 
     use super::*;
-    use crate::store::{JobId, NewRun, RunDeletion, RunFile, RunId, UnitFilter};
+    use crate::store::{NewRun, RunDeletion, RunId, UnitFilter};
     use sinscal_core::accept::{LimitKind, ReviewReason, VerdictStatus};
     use sinscal_core::calib::ParameterEstimate;
-    use sinscal_core::io::data::DataFormat;
     use sinscal_core::model::PARAMETERS;
 
     /// Seeds a calibrated run of `serial` naming `product`, every parameter
@@ -221,28 +220,9 @@ mod tests {
                 (p.name.to_string(), e)
             })
             .collect();
-        let id = RunId::new();
-        let new = NewRun {
-            run_id: id,
-            job_id: JobId::new(),
-            unit_serial: serial.parse().unwrap(),
-            file: RunFile {
-                sha256: id.to_string(),
-                size_bytes: 0,
-                records: 0,
-                format: DataFormat::Csv,
-                gzip: false,
-                blob_path: format!("runs/x/{id}.csv"),
-                metadata: "{}".into(),
-            },
-            recorded_at: Some(1_000 * k),
-            uploaded_at: 0,
-            max_attempts: 1,
-            uploaded_by: None,
-            product: product.map(str::to_string),
-        };
+        let new = NewRun::for_test(serial, 1_000 * k, product);
         store.seed_calibrated_run(&new, &params).await.unwrap();
-        id
+        new.run_id
     }
 
     async fn status(store: &Store, run: &RunId) -> (VerdictStatus, Option<i64>) {

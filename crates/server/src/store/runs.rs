@@ -131,6 +131,34 @@ pub struct NewRun {
     pub product: Option<String>,
 }
 
+#[cfg(test)]
+impl NewRun {
+    /// A run of `serial` recorded at `recorded_at` (ms), naming `product`,
+    /// with an empty CSV file of its own: what the store's tests seed.
+    pub(crate) fn for_test(serial: &str, recorded_at: i64, product: Option<&str>) -> Self {
+        let id = RunId::new();
+        NewRun {
+            run_id: id,
+            job_id: JobId::new(),
+            unit_serial: serial.parse().unwrap(),
+            file: RunFile {
+                sha256: id.to_string(),
+                size_bytes: 0,
+                records: 0,
+                format: DataFormat::Csv,
+                gzip: false,
+                blob_path: format!("runs/x/{id}.csv"),
+                metadata: "{}".into(),
+            },
+            recorded_at: Some(recorded_at),
+            uploaded_at: 0,
+            max_attempts: 1,
+            uploaded_by: None,
+            product: product.map(str::to_string),
+        }
+    }
+}
+
 /// What `insert_run_and_job` did.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum InsertOutcome {
