@@ -3,21 +3,13 @@
 
 use sinscal_core::accept::VerdictStatus;
 
-/// A value with `digits` significant digits, without exponent for the
-/// magnitudes calibration parameters have (1e-4 .. 1e6), with one beyond.
+/// A value with `digits` significant digits as the certificate writes it
+/// (`certificate_sheet::sig`), a missing one as a dash of the page's.
 pub fn sig(v: f64, digits: usize) -> String {
     if !v.is_finite() {
         return "—".into();
     }
-    if v == 0.0 {
-        return "0".into();
-    }
-    let mag = v.abs().log10().floor() as i32;
-    if !(-4..=6).contains(&mag) {
-        return format!("{:.*e}", digits.saturating_sub(1), v);
-    }
-    let decimals = (digits as i32 - 1 - mag).max(0) as usize;
-    format!("{v:.decimals$}")
+    crate::api::certificate_sheet::sig(v, digits)
 }
 
 /// `v` to the second significant digit of `resolution` (its σ, or the
