@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 use super::data::{CountedKind, CountsConversion, DataFormat, TriadConversion};
 use super::meta::{write_json, MetaError, RunMetadata};
 use super::run::metadata_sidecar;
+use super::text_lines::TextLines;
 use crate::nav::Site;
 
 /// Stamps read ahead to find the rate.
@@ -83,9 +84,7 @@ pub struct ImportedRun {
 /// with its magic bytes.
 struct Samples {
     path: PathBuf,
-    reader: Box<dyn BufRead>,
-    line: u64,
-    text: String,
+    lines: TextLines,
 }
 
 impl Samples {
@@ -103,43 +102,36 @@ impl Samples {
         };
         Ok(Samples {
             path: path.to_path_buf(),
-            reader,
-            line: 0,
-            text: String::new(),
+            lines: TextLines::new(reader),
         })
     }
 
     fn error(&self, message: impl Into<String>) -> ImuTkError {
         ImuTkError::Line {
             path: self.path.clone(),
-            line: self.line,
+            line: self.lines.line,
             message: message.into(),
         }
     }
 
     /// The next sample (blank lines skipped), `None` at the end.
     fn next_sample(&mut self) -> Result<Option<[f64; 4]>, ImuTkError> {
-        loop {
-            self.text.clear();
-            let n = self
-                .reader
-                .read_line(&mut self.text)
-                .map_err(|source| ImuTkError::Io {
-                    path: self.path.clone(),
-                    source,
-                })?;
-            if n == 0 {
-                return Ok(None);
-            }
-            self.line += 1;
-            if !self.text.trim().is_empty() {
-                return self.parse().map(Some);
-            }
+        let more = self
+            .lines
+            .advance(str::is_empty)
+            .map_err(|source| ImuTkError::Io {
+                path: self.path.clone(),
+                source,
+            })?;
+        if more {
+            self.parse().map(Some)
+        } else {
+            Ok(None)
         }
     }
 
     fn parse(&self) -> Result<[f64; 4], ImuTkError> {
-        let fields: Vec<&str> = self.text.split_whitespace().collect();
+        let fields: Vec<&str> = self.lines.text.split_whitespace().collect();
         if fields.len() != 4 {
             return Err(self.error(format!("{} values, expected 4 (t x y z)", fields.len())));
         }
@@ -254,7 +246,7 @@ fn write_counts(accel: &Path, gyro: &Path, data: &Path) -> Result<u64, ImuTkErro
                 if a[0] != g[0] {
                     return Err(gyr.error(format!(
                         "stamp {} differs from the accelerometer's {} (line {})",
-                        g[0], a[0], acc.line
+                        g[0], a[0], acc.lines.line
                     )));
                 }
                 writeln!(

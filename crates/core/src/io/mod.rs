@@ -9,6 +9,7 @@ pub mod meta;
 pub mod psins;
 pub mod run;
 pub mod serial;
+mod text_lines;
 
 pub use meta::{RunMetadata, Truth};
 pub use serial::UnitSerial;

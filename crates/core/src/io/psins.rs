@@ -30,7 +30,7 @@
 //! The scales are kept in the metadata.
 
 use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
@@ -38,6 +38,7 @@ use serde::Serialize;
 use super::data::{DataFormat, RecordWriter, WriteOptions};
 use super::meta::{validate_serial, write_json, MetaError, RunMetadata};
 use super::run::{data_file_name, metadata_sidecar};
+use super::text_lines::TextLines;
 use crate::model::units::ARCSEC;
 use crate::record::Record;
 
@@ -103,39 +104,26 @@ pub struct ImportedRun {
 /// The lines of a log that carry numbers, with their line numbers.
 struct Lines {
     path: PathBuf,
-    reader: BufReader<File>,
-    line: u64,
-    text: String,
+    lines: TextLines,
 }
 
 impl Lines {
     /// Moves to the next line of values (comments and blank lines
     /// skipped); its number, `None` at the end.
     fn next_line(&mut self) -> Result<Option<u64>, PsinsError> {
-        loop {
-            self.text.clear();
-            let n = self
-                .reader
-                .read_line(&mut self.text)
-                .map_err(|source| PsinsError::Io {
-                    path: self.path.clone(),
-                    source,
-                })?;
-            if n == 0 {
-                return Ok(None);
-            }
-            self.line += 1;
-            let t = self.text.trim();
-            if !t.is_empty() && !t.starts_with('%') {
-                break;
-            }
-        }
-        Ok(Some(self.line))
+        let more = self
+            .lines
+            .advance(|t| t.is_empty() || t.starts_with('%'))
+            .map_err(|source| PsinsError::Io {
+                path: self.path.clone(),
+                source,
+            })?;
+        Ok(more.then_some(self.lines.line))
     }
 
     /// The current line's values.
     fn fields(&self) -> Vec<&str> {
-        self.text.split_whitespace().collect()
+        self.lines.text.split_whitespace().collect()
     }
 
     fn error(&self, line: u64, message: impl Into<String>) -> PsinsError {
@@ -265,9 +253,7 @@ pub fn import_psins(
     let file = File::open(input).map_err(io_err(input))?;
     let mut lines = Lines {
         path: input.to_path_buf(),
-        reader: BufReader::new(file),
-        line: 0,
-        text: String::new(),
+        lines: TextLines::new(Box::new(BufReader::new(file))),
     };
     let header = read_header(&mut lines)?;
     std::fs::create_dir_all(out_dir).map_err(io_err(out_dir))?;
