@@ -74,43 +74,29 @@ pub struct ImuTkArgs {
     #[arg(long)]
     pub gravity: Option<f64>,
     /// The accelerometer counts that read zero, x,y,z.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        required = true,
-        allow_hyphen_values = true
-    )]
-    pub accel_offset: Vec<f64>,
+    #[arg(long, value_parser = triad, allow_hyphen_values = true)]
+    pub accel_offset: [f64; 3],
     /// Accelerometer counts per m/s², x,y,z.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        required = true,
-        allow_hyphen_values = true
-    )]
-    pub accel_scale: Vec<f64>,
+    #[arg(long, value_parser = triad, allow_hyphen_values = true)]
+    pub accel_scale: [f64; 3],
     /// The gyro counts that read zero, x,y,z.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        required = true,
-        allow_hyphen_values = true
-    )]
-    pub gyro_offset: Vec<f64>,
+    #[arg(long, value_parser = triad, allow_hyphen_values = true)]
+    pub gyro_offset: [f64; 3],
     /// Gyro counts per rad/s, x,y,z.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        required = true,
-        allow_hyphen_values = true
-    )]
-    pub gyro_scale: Vec<f64>,
+    #[arg(long, value_parser = triad, allow_hyphen_values = true)]
+    pub gyro_scale: [f64; 3],
 }
 
-fn triad(values: &[f64], flag: &str) -> anyhow::Result<[f64; 3]> {
+/// A flag's three values, `x,y,z`.
+fn triad(text: &str) -> Result<[f64; 3], String> {
+    let values = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("`{v}`: {e}")))
+        .collect::<Result<Vec<f64>, String>>()?;
+    let n = values.len();
     values
         .try_into()
-        .map_err(|_| anyhow::anyhow!("--{flag} takes three values x,y,z, not {}", values.len()))
+        .map_err(|_| format!("three values x,y,z, not {n}"))
 }
 
 fn run_imu_tk(a: &ImuTkArgs) -> anyhow::Result<()> {
@@ -121,12 +107,12 @@ fn run_imu_tk(a: &ImuTkArgs) -> anyhow::Result<()> {
             ..Site::new(a.latitude, a.longitude, a.height)
         },
         accel: NominalTriad {
-            offset: triad(&a.accel_offset, "accel-offset")?,
-            counts_per_unit: triad(&a.accel_scale, "accel-scale")?,
+            offset: a.accel_offset,
+            counts_per_unit: a.accel_scale,
         },
         gyro: NominalTriad {
-            offset: triad(&a.gyro_offset, "gyro-offset")?,
-            counts_per_unit: triad(&a.gyro_scale, "gyro-scale")?,
+            offset: a.gyro_offset,
+            counts_per_unit: a.gyro_scale,
         },
     };
     let run = import_imu_tk(&a.accel, &a.gyro, &a.out, &how)?;

@@ -122,15 +122,7 @@ mod tests {
 
     #[test]
     fn every_grade_above_navigation_allows_larger_errors() {
-        for group in [
-            Group::GyroBias,
-            Group::GyroScale,
-            Group::GyroMisalign,
-            Group::AccelBias,
-            Group::AccelScale,
-            Group::AccelMisalign,
-            Group::AccelQuad,
-        ] {
+        for group in Group::ALL {
             let [nav, tac, con] = Grade::ALL.map(|g| g.magnitude(group));
             assert!(nav < tac && tac < con, "{group:?}: {nav} {tac} {con}");
         }
