@@ -27,6 +27,7 @@ mod api_upload;
 mod calib_accuracy;
 mod calib_behaviour;
 mod calib_effect_states;
+mod calib_grades;
 mod calib_raw_units;
 mod calib_real_sensors;
 mod calib_tactical;

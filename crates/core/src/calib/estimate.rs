@@ -50,7 +50,9 @@ pub fn estimate(
     let temperature = source.temperature()?;
     let opts = &with_thermal_states(opts, temperature.as_ref())?;
     let scan = scan_run(source, run, opts, cancel)?;
-    let ctx = PassContext::new(source, run, opts, &scan, cancel).with_temperature(temperature);
+    let ctx = PassContext::new(source, run, opts, &scan, cancel)
+        .with_temperature(temperature)
+        .with_run_heading()?;
     Ok(estimate_scanned(&ctx, progress)?.result)
 }
 

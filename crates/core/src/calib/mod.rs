@@ -11,6 +11,7 @@ pub(crate) mod effect_sensitivity;
 pub(crate) mod error;
 pub(crate) mod estimate;
 pub(crate) mod gaps;
+pub(crate) mod heading;
 pub(crate) mod kf_pass;
 pub(crate) mod lsq;
 pub(crate) mod misfit;

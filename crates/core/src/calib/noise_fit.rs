@@ -34,6 +34,7 @@ use super::error::CalibError;
 use super::replay::PassTrace;
 use super::walk::PassContext;
 use crate::estimation::noise_model::{NoiseModel, TriadNoise};
+use crate::model::Grade;
 
 /// The terms the fit adjusts, as factors on the start model.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -75,18 +76,25 @@ impl FreeTerm {
         }
     }
 
-    /// Where a term the Allan curves did not resolve starts: a
-    /// navigation-grade unit's size (the search moves it by orders of
-    /// magnitude if the run says so).
-    fn nominal(self) -> f64 {
+    /// Where a term the Allan curves did not resolve starts: a typical
+    /// unit's size at `grade` (the search moves it by orders of magnitude
+    /// if the run says so, but from a navigation unit's 0.001 deg/h a
+    /// MEMS gyro's 10 deg/h is more than its evaluations can climb).
+    fn nominal(self, grade: Grade) -> f64 {
         use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
+        let per_rt_h = 1.0 / HOUR.sqrt();
+        let [gyro_b, gyro_k, accel_b, accel_k] = match grade {
+            Grade::Navigation => [0.001, 0.0003, 2.0, 2.0],
+            Grade::Tactical => [0.3, 0.1, 20.0, 20.0],
+            Grade::Consumer => [5.0, 3.0, 50.0, 100.0],
+        };
         match self {
             FreeTerm::GyroWhite => 0.0003 * DEG_PER_RT_H,
             FreeTerm::AccelWhite => 5.0 * UG_PER_RT_HZ,
-            FreeTerm::GyroInstability => 0.001 * DEG_PER_H,
-            FreeTerm::AccelInstability => 2.0 * UG,
-            FreeTerm::GyroRandomWalk => 0.0003 * DEG_PER_H / HOUR.sqrt(),
-            FreeTerm::AccelRandomWalk => 2.0 * UG / HOUR.sqrt(),
+            FreeTerm::GyroInstability => gyro_b * DEG_PER_H,
+            FreeTerm::AccelInstability => accel_b * UG,
+            FreeTerm::GyroRandomWalk => gyro_k * DEG_PER_H * per_rt_h,
+            FreeTerm::AccelRandomWalk => accel_k * UG * per_rt_h,
         }
     }
 
@@ -160,7 +168,7 @@ pub(crate) fn fit_noise(
     for t in free {
         let v = t.values(&mut start);
         if v.iter().all(|x| *x <= 0.0) {
-            *v = [t.nominal(); 3];
+            *v = [t.nominal(ctx.grade); 3];
         }
     }
     let space = LogSpace {

@@ -13,6 +13,7 @@ use super::effect_sensitivity::{
     effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
 };
 use super::error::CalibError;
+use super::heading::{run_heading, RunHeading};
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
 use super::run::{RecordSource, RunInfo};
@@ -55,6 +56,10 @@ pub(crate) struct PassContext<'a> {
     pub temperature: Option<TemperatureCurve>,
     /// The unit's grade: given, or named by the run's gyro noise.
     pub grade: Grade,
+    /// Where the Earth rate is hidden: the start heading and gyro bias of
+    /// the uncompensated run (`heading`), whose σ every pass's start
+    /// attitude prior takes.
+    pub start_heading: Option<RunHeading>,
 }
 
 impl PassContext<'_> {
@@ -63,6 +68,7 @@ impl PassContext<'_> {
         Priors {
             scale: self.opts.prior_scale,
             grade: self.grade,
+            start_heading_sigma: self.start_heading.map(|h| h.sigma_rad.min(0.1)),
         }
     }
 
@@ -164,7 +170,12 @@ impl<'a> PassContext<'a> {
             None => NoiseModel::white(scan.arw, scan.vrw),
         }
         .floored(MIN_ARW, MIN_VRW);
-        let grade = opts.grade.unwrap_or_else(|| Grade::of_gyro_noise(scan.arw));
+        let grade = opts.grade.unwrap_or_else(|| {
+            // The first still stretch's rate; a run with none is refused
+            // before its grade matters.
+            let rate = first_dwell(scan).map_or(0.0, |d| Vector3::from(d.mean_omega_b).norm());
+            Grade::of_gyros(scan.arw, rate, run.site.omega_ie_n().norm())
+        });
         PassContext {
             grade,
             source,
@@ -176,7 +187,23 @@ impl<'a> PassContext<'a> {
             vrw: noise.accel.white_rms(),
             cancel,
             temperature: None,
+            start_heading: None,
         }
+    }
+
+    /// The context with the start heading found from the whole run, for a
+    /// unit whose gyros cannot gyrocompass on one dwell; unchanged for
+    /// others.
+    pub fn with_run_heading(self) -> Result<Self, CalibError> {
+        if !self.grade.earth_rate_hidden() {
+            return Ok(self);
+        }
+        let raw = ErrorParameters::zero().compensator();
+        let start_heading = Some(run_heading(&self, &raw)?);
+        Ok(PassContext {
+            start_heading,
+            ..self
+        })
     }
 
     /// The context with the run's temperature history.
@@ -199,7 +226,7 @@ pub(crate) fn align_start(
     let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
     let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
     let c_coarse = if ctx.grade.earth_rate_hidden() {
-        align::coarse_level(&f_b)?
+        run_heading(ctx, comp)?.turn(&align::coarse_level(&f_b)?)
     } else {
         align::coarse(&f_b, &w_b)?
     };
@@ -223,22 +250,21 @@ pub(crate) fn align_start(
 }
 
 /// Where the passes start: no error, or, for a unit whose gyro biases
-/// hide the Earth rate (a MEMS gyro's 0.3 deg/s is 70 times it), the
-/// first dwell's mean rate less the Earth rate at the nominal heading as
-/// the gyro biases. Left to the first pass, a bias that size turns the
-/// unit by degrees in every turn, and the filter's linear error model
-/// would take passes to catch up with it.
+/// hide the Earth rate (a MEMS gyro's 0.3 deg/s is 70 times it), the gyro
+/// biases the whole run implies (`heading`). Left to the first pass, a
+/// bias that size turns the unit by degrees in every turn, and the
+/// filter's linear error model would take passes to catch up with it.
 pub(crate) fn starting_point(ctx: &PassContext) -> Result<ErrorParameters, CalibError> {
-    if !ctx.grade.earth_rate_hidden() {
+    let Some(start) = ctx.start_heading else {
         return Ok(ErrorParameters::zero());
-    }
-    let dwell1 = first_dwell(ctx.scan)?;
-    let c_b_n = align::coarse_level(&Vector3::from(dwell1.mean_f_b))?;
-    let earth_b = c_b_n.transpose() * ctx.run.site.omega_ie_n();
-    let bias_b = Vector3::from(dwell1.mean_omega_b) - earth_b;
+    };
     let (none, zero) = (Matrix3::zeros(), Vector3::zeros());
     Ok(ErrorParameters::from_parts(
-        &bias_b, &none, &zero, &none, &zero,
+        &start.gyro_bias_b,
+        &none,
+        &zero,
+        &none,
+        &zero,
     ))
 }
 

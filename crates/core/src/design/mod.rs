@@ -190,6 +190,7 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
             grade: opts.grade.unwrap_or_else(|| {
                 Grade::of_gyro_noise(req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H)
             }),
+            start_heading_sigma: None,
         },
         initial_attitude_deg: req.initial_attitude_deg,
         dwell_window_s: 10.0,

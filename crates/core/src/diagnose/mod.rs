@@ -92,8 +92,9 @@ pub fn diagnose(
     let thermal = temperature
         .as_ref()
         .is_some_and(|c| c.span_c() >= THERMAL_SPAN_C);
-    let ctx =
-        PassContext::new(source, run, &opts.estimate, &scan, cancel).with_temperature(temperature);
+    let ctx = PassContext::new(source, run, &opts.estimate, &scan, cancel)
+        .with_temperature(temperature)
+        .with_run_heading()?;
     let base = estimate_base_for_diagnosis(&ctx, &mut |p| {
         progress(Progress {
             fraction: 0.4 * p.fraction,

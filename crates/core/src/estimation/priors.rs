@@ -15,6 +15,9 @@ use crate::nav::Site;
 pub struct Priors {
     pub scale: f64,
     pub grade: Grade,
+    /// The start heading's σ when the run found it otherwise than by
+    /// gyrocompassing its first dwell (`calib::heading`), rad.
+    pub start_heading_sigma: Option<f64>,
 }
 
 /// Prior 1-σ of one parameter family, SI: `scale` times the grade's
@@ -37,7 +40,9 @@ pub fn prior_sigma(priors: Priors) -> Vec<f64> {
 /// prior adds no information the run must supply. The unit starts at rest.
 pub(crate) fn initial_navigation_covariance(site: &Site, priors: Priors) -> Matrix6<f64> {
     let tilt = (3.0 * family_prior(priors, Group::AccelBias) / site.gravity()).min(0.1);
-    let heading = (3.0 * family_prior(priors, Group::GyroBias) / site.omega_ie_n().y).min(0.1);
+    let heading = priors.start_heading_sigma.unwrap_or_else(|| {
+        (3.0 * family_prior(priors, Group::GyroBias) / site.omega_ie_n().y).min(0.1)
+    });
     let mut p0 = Matrix6::zeros();
     for (i, s) in [tilt, tilt, heading, 1e-4, 1e-4, 1e-4].iter().enumerate() {
         p0[(i, i)] = s * s;

@@ -14,7 +14,10 @@ use super::params::{paper_magnitude, Group};
 use super::units::{ARCSEC, DEG_PER_H, DEG_PER_RT_H, PPM, UG, UG_PER_G2};
 
 /// A unit's grade.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// Ordered from the smallest errors to the largest.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
 #[cfg_attr(feature = "clap", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Grade {
@@ -32,6 +35,11 @@ pub enum Grade {
 const NAVIGATION_ARW_MAX: f64 = 0.05 * DEG_PER_RT_H;
 /// Largest white gyro noise of a tactical unit, rad/√s.
 const TACTICAL_ARW_MAX: f64 = 0.5 * DEG_PER_RT_H;
+/// Largest gyro bias of a navigation-grade unit, rad/s: a hundred times
+/// the seed paper's 0.05 deg/h, far above any ring-laser gyro.
+const NAVIGATION_BIAS_MAX: f64 = 5.0 * DEG_PER_H;
+/// Largest gyro bias of a tactical unit, rad/s: twice its datasheet's.
+const TACTICAL_BIAS_MAX: f64 = 100.0 * DEG_PER_H;
 
 impl Grade {
     pub const ALL: [Grade; 3] = [Grade::Navigation, Grade::Tactical, Grade::Consumer];
@@ -54,6 +62,24 @@ impl Grade {
         } else {
             Grade::Consumer
         }
+    }
+
+    /// The grade of a unit whose gyros read `rate_at_rest` (rad/s, the
+    /// magnitude of a still stretch's mean rate) with white noise `arw`:
+    /// the grade of its noise or of its bias, whichever is lower. A quiet
+    /// MEMS gyro (0.2 deg/√h is tactical noise) still has a MEMS bias, and
+    /// tactical priors would hold its 1 deg/s and 3° mountings back. The
+    /// bias is at least the rate less the Earth rate `omega_ie` (rad/s).
+    pub fn of_gyros(arw: f64, rate_at_rest: f64, omega_ie: f64) -> Grade {
+        let bias_at_least = rate_at_rest - omega_ie;
+        let by_bias = if bias_at_least > TACTICAL_BIAS_MAX {
+            Grade::Consumer
+        } else if bias_at_least > NAVIGATION_BIAS_MAX {
+            Grade::Tactical
+        } else {
+            Grade::Navigation
+        };
+        Grade::of_gyro_noise(arw).max(by_bias)
     }
 
     /// The typical size of a parameter family at this grade, SI: the seed
@@ -118,6 +144,21 @@ mod tests {
         );
         assert_eq!(Grade::of_gyro_noise(0.15 * DEG_PER_RT_H), Grade::Tactical);
         assert_eq!(Grade::of_gyro_noise(1.0 * DEG_PER_RT_H), Grade::Consumer);
+    }
+
+    #[test]
+    fn a_mems_bias_names_the_grade_whatever_the_noise() {
+        let earth = 15.04 * DEG_PER_H;
+        let quiet = 0.2 * DEG_PER_RT_H;
+        let of = |bias_deg_h: f64| Grade::of_gyros(quiet, bias_deg_h * DEG_PER_H + earth, earth);
+        assert_eq!(of(0.0), Grade::Tactical);
+        assert_eq!(of(3600.0), Grade::Consumer);
+        let rlg = 0.0005 * DEG_PER_RT_H;
+        assert_eq!(Grade::of_gyros(rlg, earth, earth), Grade::Navigation);
+        assert_eq!(
+            Grade::of_gyros(rlg, earth + 20.0 * DEG_PER_H, earth),
+            Grade::Tactical
+        );
     }
 
     #[test]

@@ -293,9 +293,15 @@ impl ErrorParameters {
     /// A random truth: each parameter uniform in ±2× its paper magnitude,
     /// so signs are mixed (`sinscal simulate --params random`).
     pub fn random(rng: &mut impl rand::Rng) -> Self {
+        Self::random_sized(rng, paper_magnitude)
+    }
+
+    /// A random truth with each parameter uniform in ±2× `magnitude` of
+    /// its family, SI (a grade's sizes: `Grade::magnitude`).
+    pub fn random_sized(rng: &mut impl rand::Rng, magnitude: impl Fn(Group) -> f64) -> Self {
         let mut si = [0.0; N_PARAMS];
         for (v, info) in si.iter_mut().zip(PARAMETERS.iter()) {
-            *v = rng.gen_range(-2.0..=2.0) * paper_magnitude(info.group);
+            *v = rng.gen_range(-2.0..=2.0) * magnitude(info.group);
         }
         ErrorParameters { si }
     }

@@ -6,6 +6,7 @@
 
 pub mod flip;
 pub mod generator;
+pub mod grade_runs;
 pub mod hand;
 pub mod profile;
 pub mod pulses;
