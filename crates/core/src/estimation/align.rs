@@ -35,9 +35,9 @@ pub fn coarse(f_b: &Vector3<f64>, omega_b: &Vector3<f64>) -> Result<Matrix3<f64>
 /// C_b^n from the mean specific force f^b alone, for a unit whose gyros
 /// cannot see the Earth rate: up along f, east along the body x axis
 /// made horizontal (y when x points up), north completing the frame. The
-/// heading is SPEC §4's nominal start (x east), not measured: such a
-/// unit's heading is unobservable, and it matters to the calibration only
-/// through the Earth rate its gyros cannot resolve.
+/// heading is SPEC §4's nominal start (x east): one dwell of such a unit
+/// cannot find it, the whole run can (`calib::heading` turns this
+/// attitude to it).
 pub fn coarse_level(f_b: &Vector3<f64>) -> Result<Matrix3<f64>, EstimationError> {
     let up = f_b.try_normalize(1e-9).ok_or(EstimationError::CannotAlign(
         "no specific force in the first dwell: cannot level",
