@@ -346,3 +346,51 @@ async fn the_compensation_of_a_run_not_accepted_is_downloaded_only_with_a_reason
     );
     app.stop().await;
 }
+
+/// The admin page's product form sets the line's model; a model the
+/// server cannot read is refused naming the field.
+#[tokio::test]
+async fn the_admin_form_sets_a_product_types_model() {
+    let app = spawn_app(0).await;
+    let s = app.sign_in(&app.admin).await;
+    let form = s.get("/admin").await.text().await.unwrap();
+    assert!(form.contains("name=\"model\""), "{form}");
+    let save = |model: &'static str| {
+        let s = &s;
+        async move {
+            s.post(
+                "/admin/products",
+                &[
+                    ("name", "LINE-M"),
+                    ("description", ""),
+                    ("limits", "{}"),
+                    ("model", model),
+                ],
+            )
+            .await
+        }
+    };
+    let r = save("base+gyro_scale_asymmetry+tilt").await;
+    assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY);
+    let page = r.text().await.unwrap();
+    assert!(page.contains("model: "), "{page}");
+    assert!(page.contains("tilt"), "{page}");
+    assert_eq!(
+        app.get(&app.admin, "/product-types/LINE-M").await.status(),
+        StatusCode::NOT_FOUND
+    );
+    let r = save(" base+gyro_scale_asymmetry ").await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let read = app.get_json("/product-types/LINE-M").await;
+    assert_eq!(read["model"], "base-24+gyro_scale_asymmetry");
+    let admin = s.get("/admin").await.text().await.unwrap();
+    let products = &admin[admin.find("id=\"products\"").unwrap()..];
+    assert!(products.contains("base-24+gyro_scale_asymmetry"), "{admin}");
+    // Saved again with the model left empty: the server's.
+    let r = save("").await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let read = app.get_json("/product-types/LINE-M").await;
+    assert_eq!(read["model"], serde_json::Value::Null);
+    assert_eq!(read["revision"], 2);
+    app.stop().await;
+}

@@ -2,6 +2,7 @@
 //! known to a few ppm, no more, and times in UTC as the API gives them.
 
 use sinscal_core::accept::VerdictStatus;
+use sinscal_core::calib::ErrorModel;
 
 /// A value with `digits` significant digits as the certificate writes it
 /// (`certificate_sheet::sig`), a missing one as a dash of the page's.
@@ -45,6 +46,12 @@ pub fn verdict(status: Option<VerdictStatus>) -> (&'static str, &'static str) {
         Some(VerdictStatus::NeedsReview) => ("needs review", "warn"),
         None => ("not judged", "none"),
     }
+}
+
+/// A result's model as its name (`base-24+accel_delay`), a dash when not
+/// known.
+pub fn model(m: Option<&ErrorModel>) -> String {
+    m.map_or_else(|| "—".into(), ErrorModel::to_string)
 }
 
 /// The first part of an id, enough to tell runs apart on a page.
