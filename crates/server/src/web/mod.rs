@@ -22,6 +22,7 @@ mod noise;
 mod noise_charts;
 mod run;
 mod run_plots;
+mod run_verdict;
 mod session;
 mod signin;
 mod unit;
