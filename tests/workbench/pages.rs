@@ -571,3 +571,36 @@ async fn the_admin_form_sets_a_product_types_model() {
     assert_eq!(read["revision"], 2);
     app.stop().await;
 }
+
+/// A form upload whose declared body is over the server's limit is refused
+/// before a byte of it is read (so the test speaks HTTP by hand), still as
+/// a page naming the data file and the limit, with the way back.
+#[tokio::test]
+async fn an_upload_over_the_body_limit_is_refused_as_a_page() {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let app = spawn_app_with(0, |c| c.max_body_bytes = 1 << 20).await;
+    let station = app.create_token("station").await;
+    let s = app.sign_in(&station).await;
+    let addr = s.origin.trim_start_matches("http://").to_string();
+    let head = format!(
+        "POST /upload?csrf={} HTTP/1.1\r\nHost: {addr}\r\nCookie: {}\r\n\
+         Content-Type: multipart/form-data; boundary=xyz\r\nContent-Length: {}\r\n\r\n",
+        s.csrf,
+        s.cookie,
+        4u64 << 20
+    );
+    let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
+    tcp.write_all(head.as_bytes()).await.unwrap();
+    let mut reply = Vec::new();
+    let _ = tokio::time::timeout(Duration::from_secs(5), tcp.read_to_end(&mut reply)).await;
+    let reply = String::from_utf8_lossy(&reply);
+    assert!(reply.starts_with("HTTP/1.1 413"), "{reply}");
+    assert!(reply.contains("content-type: text/html"), "{reply}");
+    assert!(reply.contains("data-part=\"data\""), "{reply}");
+    assert!(
+        text_of(&reply, "refusal-detail").contains("exceeds the limit of 1048576 bytes"),
+        "{reply}"
+    );
+    assert!(reply.contains("href=\"/upload\""), "{reply}");
+    app.stop().await;
+}

@@ -8,6 +8,7 @@
 //! and why.
 
 use axum::extract::{Query, Request, State};
+use axum::http::{header, StatusCode};
 use axum::response::{Html, IntoResponse, Response};
 use maud::{html, Markup};
 use serde::Deserialize;
@@ -71,16 +72,27 @@ fn form(session: &PageCaller<roles::Upload>) -> Markup {
 /// refused (the data file, the metadata, or the upload as a whole) and
 /// the problem's detail, then the form to send it again.
 fn refused(session: &PageCaller<roles::Upload>, refusal: RefusedUpload) -> Response {
-    let what = match refusal.part {
+    let (status, detail) = shown(refusal.error);
+    refusal_page(Some(session), refusal.part, status, &detail)
+}
+
+/// A refusal page; without a session (a body refused before the handler
+/// read one) it links back to the form instead of repeating it.
+fn refusal_page(
+    session: Option<&PageCaller<roles::Upload>>,
+    part: Option<UploadPart>,
+    status: StatusCode,
+    detail: &str,
+) -> Response {
+    let what = match part {
         Some(UploadPart::Data) => "The data file was refused",
         Some(UploadPart::Metadata) => "The metadata (run.json) was refused",
         None => "The upload was refused",
     };
-    let part = refusal.part.map(|p| match p {
+    let part = part.map(|p| match p {
         UploadPart::Data => "data",
         UploadPart::Metadata => "metadata",
     });
-    let (status, detail) = shown(refusal.error);
     let body = html! {
         h1 { "Upload refused" }
         section #refusal data-part=[part] {
@@ -89,10 +101,33 @@ fn refused(session: &PageCaller<roles::Upload>, refusal: RefusedUpload) -> Respo
         }
         h2 { "Send it again" }
         p.muted { "Choose the files again (a browser does not keep them), or go back to " a href="/upload" { "the upload page" } "." }
-        (form(session))
+        @if let Some(session) = session { (form(session)) }
     };
-    let page = layout::page("Upload refused", Some(session), body).into_string();
+    let nav = session.map(|s| &**s);
+    let page = layout::page("Upload refused", nav, body).into_string();
     (status, Html(page)).into_response()
+}
+
+/// The body limit's own 413, answered before the handler runs when a
+/// browser declares a body over `max_body_bytes`: as the refusal page (the
+/// data file is what makes a body that large; the metadata part is
+/// capped far below). Any other answer passes unchanged.
+pub fn oversized_as_page(resp: Response, max_body_bytes: u64) -> Response {
+    let is_page = resp
+        .headers()
+        .get(header::CONTENT_TYPE)
+        .is_some_and(|v| v.as_bytes().starts_with(b"text/html"));
+    if resp.status() != StatusCode::PAYLOAD_TOO_LARGE || is_page {
+        return resp;
+    }
+    let detail = format!("the upload exceeds the limit of {max_body_bytes} bytes");
+    let mut page = refusal_page(None, Some(UploadPart::Data), resp.status(), &detail);
+    for (name, value) in resp.headers() {
+        if name != header::CONTENT_TYPE && name != header::CONTENT_LENGTH {
+            page.headers_mut().insert(name.clone(), value.clone());
+        }
+    }
+    page
 }
 
 #[derive(Deserialize)]
