@@ -365,10 +365,12 @@ impl Store {
     }
 
     /// Per-parameter spread over a unit's calibrated runs with
-    /// `run_time >= since`, the `last` most recent of them (`None`: all).
+    /// `run_time >= since`, the `last` most recent of them (`None`: all),
+    /// and those runs with their models.
     ///
-    /// One range scan of `results_unit_time_run` reading one value blob per
-    /// run, in time order (ties by run id, as history orders them).
+    /// One range scan of `results_unit_time_run` reading one value blob
+    /// (with the run's id, time and model) per run, in time order (ties by
+    /// run id, as history orders them).
     pub async fn repeatability(
         &self,
         serial: &UnitSerial,
@@ -393,9 +395,9 @@ impl Store {
     }
 
     /// Per-parameter spread over a unit's calibrated runs up to and
-    /// including `run_time` (ties by run id, up to `run_id`): the runs a
-    /// certificate of that run states its repeatability over, which later
-    /// runs do not change.
+    /// including `run_time` (ties by run id, up to `run_id`), with those
+    /// runs and their models: the runs a certificate of that run states its
+    /// repeatability over, which later runs do not change.
     pub async fn repeatability_through(
         &self,
         serial: &UnitSerial,
