@@ -84,6 +84,7 @@ async fn seed(store: &Store) {
             name: "NAV-1",
             description: Some("benchmark"),
             limits: &limits,
+            model: None,
             by: "bench",
         })
         .await

@@ -185,6 +185,15 @@ async fn five_runs_give_history_and_repeatability_matching_the_truths() {
     assert_eq!(params[3]["tolerance"], 1.0);
     let last3 = app.repeatability(serial, "?last=3").await;
     assert_eq!(last3["runs"], 3);
+    // The runs it covers, the three latest in time order, each with the
+    // server's model (as the history says).
+    let covered: Vec<&Value> = last3["run_models"].as_array().unwrap().iter().collect();
+    assert_eq!(covered.len(), 3);
+    for (c, (body, _)) in covered.iter().zip(&runs[2..]) {
+        assert_eq!(c["run_id"], body["run_id"]);
+        assert_eq!(c["model"], "base-24");
+    }
+    assert!(items.iter().all(|it| it["model"] == "base-24"));
     let since = app.repeatability(serial, "?since=2026-04-01").await;
     assert_eq!(since["runs"], 2);
     app.stop().await;

@@ -23,6 +23,7 @@ mod api_faults;
 mod api_jobs;
 mod api_model_check;
 mod api_noise;
+mod api_product_model;
 mod api_upload;
 mod calib_accuracy;
 mod calib_behaviour;

@@ -6,7 +6,7 @@
 use std::time::Duration;
 
 use crate::common::pages::{location, set_cookie};
-use crate::common::{short_run, spawn_app, TestApp};
+use crate::common::{short_run, spawn_app, spawn_app_with, TestApp};
 use reqwest::StatusCode;
 use sinscal_core::io::data::DataFormat;
 
@@ -344,5 +344,263 @@ async fn the_compensation_of_a_run_not_accepted_is_downloaded_only_with_a_reason
         json["provenance"]["verdict_override"]["reason"],
         "bench trial"
     );
+    app.stop().await;
+}
+
+/// `run`'s metadata for `serial`, naming `product` when given.
+fn metadata_of(run: &crate::common::SimRun, serial: &str, product: Option<&str>) -> Vec<u8> {
+    let mut meta: serde_json::Value = serde_json::from_slice(&run.metadata).unwrap();
+    meta["unit_serial"] = serde_json::json!(serial);
+    if let Some(p) = product {
+        meta["product"] = serde_json::json!(p);
+    }
+    serde_json::to_vec(&meta).unwrap()
+}
+
+/// The text of the element with `id` in `page` (the first line of it).
+fn text_of<'a>(page: &'a str, id: &str) -> &'a str {
+    let at = page
+        .find(&format!("id=\"{id}\""))
+        .unwrap_or_else(|| panic!("no #{id} in {page}"));
+    let rest = &page[at..];
+    &rest[..rest.find("</section>").unwrap_or(rest.len())]
+}
+
+/// A refused upload ends on a page naming the part at fault and the
+/// problem's detail, with the form to send it again; an upload that is
+/// taken waits for its verdict on its run's page and in the station's
+/// list.
+#[tokio::test]
+async fn a_refused_upload_names_the_part_at_fault_and_offers_the_form_again() {
+    // No workers: an accepted upload stays queued.
+    let app = spawn_app(0).await;
+    let station = app.create_token("station").await;
+    let s = app.sign_in(&station).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 6, DataFormat::Csv, "RLG-RF");
+    let data = std::fs::read(&run.data).unwrap();
+    let mut broken = data.clone();
+    broken.truncate(data.len() / 2);
+    broken.extend_from_slice(b"\n1.0,not-a-number\n");
+    let mut short = data.clone();
+    short.truncate(data.len() / 100);
+    short.truncate(short.iter().rposition(|&b| b == b'\n').unwrap() + 1);
+    let no_unit = br#"{"sample_rate_hz": 100, "format": "csv"}"#.to_vec();
+    let cases: [(&str, Vec<u8>, Vec<u8>, &str); 3] = [
+        ("data", run.metadata.clone(), broken, "line"),
+        (
+            "data",
+            run.metadata.clone(),
+            short,
+            "a calibration needs at least 40 s",
+        ),
+        ("metadata", no_unit, data.clone(), "unit_serial"),
+    ];
+    for (part, metadata, body, says) in cases {
+        let r = s.upload(&s.csrf, &metadata, body).await;
+        assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY, "{part}");
+        assert!(r.headers()[reqwest::header::CONTENT_TYPE]
+            .to_str()
+            .unwrap()
+            .starts_with("text/html"));
+        let page = r.text().await.unwrap();
+        let refusal = text_of(&page, "refusal");
+        assert!(
+            refusal.contains(&format!("data-part=\"{part}\"")),
+            "{refusal}"
+        );
+        let what = if part == "data" {
+            "The data file was refused"
+        } else {
+            "The metadata (run.json) was refused"
+        };
+        assert!(refusal.contains(what), "{refusal}");
+        assert!(
+            text_of(&page, "refusal-detail").contains(says),
+            "{says}: {page}"
+        );
+        // The form again, with the session's token, and the way back.
+        assert!(
+            page.contains(&format!("action=\"/upload?csrf={}\"", s.csrf)),
+            "{page}"
+        );
+        assert!(page.contains("href=\"/upload\""), "{page}");
+    }
+    // Nothing of them was stored.
+    assert_eq!(app.units().await["total"], 0);
+
+    // Taken: its page and the station's list say what the verdict waits
+    // for.
+    let r = s.upload(&s.csrf, &run.metadata, data).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let page = s.get(location(&r).unwrap()).await.text().await.unwrap();
+    assert!(
+        text_of(&page, "verdict").contains("calibration queued"),
+        "{page}"
+    );
+    let list = s.get("/upload").await.text().await.unwrap();
+    assert!(
+        text_of(&list, "uploads").contains("calibration queued"),
+        "{list}"
+    );
+    app.stop().await;
+}
+
+/// A station reads the verdict of each of its runs, in words, on the
+/// run's page (where the upload form sends it) and in its list of
+/// uploads; the unit's page says which model each run used.
+#[tokio::test]
+async fn stations_see_the_verdict_of_their_runs_in_words() {
+    let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
+    // A σ bound no run can meet.
+    let r = app
+        .http
+        .post(app.url("/product-types"))
+        .bearer_auth(&app.admin)
+        .json(
+            &serde_json::json!({"name": "TIGHT", "limits": {"gyro_scale_y": {"max_sigma": 1e-9}}}),
+        )
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::CREATED);
+    let station = app.create_token("station").await;
+    let s = app.sign_in(&station).await;
+    let dir = tempfile::tempdir().unwrap();
+    let run = short_run(dir.path(), 7, DataFormat::Csv, "ST-A");
+    let data = std::fs::read(&run.data).unwrap();
+    let cases = [
+        ("ST-A", None, "accepted"),
+        ("ST-R", Some("TIGHT"), "rejected"),
+        ("ST-N", Some("NO-SUCH-TYPE"), "needs review"),
+    ];
+    let mut pages = Vec::new();
+    for (serial, product, _) in cases {
+        let r = s
+            .upload(&s.csrf, &metadata_of(&run, serial, product), data.clone())
+            .await;
+        assert_eq!(r.status(), StatusCode::SEE_OTHER, "{serial}");
+        pages.push(location(&r).unwrap().to_string());
+    }
+    for ((serial, _, word), page) in cases.iter().zip(&pages) {
+        let id = page.trim_start_matches("/runs/");
+        let job = app.get_run(id).await["job_id"]
+            .as_str()
+            .unwrap()
+            .to_string();
+        let done = app.wait_job(&job, CALIBRATION).await;
+        assert_eq!(done["state"], "succeeded", "{serial}: {done}");
+        let html = s.get(page).await.text().await.unwrap();
+        let verdict = text_of(&html, "verdict");
+        assert!(
+            verdict.contains("Verdict: <span class=\"badge") && verdict.contains(word),
+            "{serial}: {verdict}"
+        );
+    }
+    let list = s.get("/upload").await.text().await.unwrap();
+    let uploads = text_of(&list, "uploads");
+    for ((serial, _, word), page) in cases.iter().zip(&pages) {
+        let row = &uploads[uploads
+            .find(&page[6..14])
+            .unwrap_or_else(|| panic!("{serial}"))..];
+        let row = &row[..row.find("</tr>").unwrap()];
+        assert!(row.contains(word), "{serial}: {row}");
+    }
+    // The rejected run's page names the limit it failed.
+    let rejected = s.get(&pages[1]).await.text().await.unwrap();
+    assert!(text_of(&rejected, "verdict").contains("gyro_scale_y"));
+
+    // The unit's page (an engineer's) says which model the run used, in
+    // its history and above the repeatability table's run columns.
+    let admin = app.sign_in(&app.admin).await;
+    let unit = admin.get("/units/ST-A").await.text().await.unwrap();
+    let history = &unit[unit.find("id=\"history\"").unwrap()..];
+    assert!(history[..history.find("</table>").unwrap()].contains("base-24"));
+    let models = &unit[unit.find("id=\"run-models\"").unwrap()..];
+    assert!(
+        models[..models.find("</tr>").unwrap()].contains("base-24"),
+        "{unit}"
+    );
+    app.stop().await;
+}
+
+/// The admin page's product form sets the line's model; a model the
+/// server cannot read is refused naming the field.
+#[tokio::test]
+async fn the_admin_form_sets_a_product_types_model() {
+    let app = spawn_app(0).await;
+    let s = app.sign_in(&app.admin).await;
+    let form = s.get("/admin").await.text().await.unwrap();
+    assert!(form.contains("name=\"model\""), "{form}");
+    let save = |model: &'static str| {
+        let s = &s;
+        async move {
+            s.post(
+                "/admin/products",
+                &[
+                    ("name", "LINE-M"),
+                    ("description", ""),
+                    ("limits", "{}"),
+                    ("model", model),
+                ],
+            )
+            .await
+        }
+    };
+    let r = save("base+gyro_scale_asymmetry+tilt").await;
+    assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY);
+    let page = r.text().await.unwrap();
+    assert!(page.contains("model: "), "{page}");
+    assert!(page.contains("tilt"), "{page}");
+    assert_eq!(
+        app.get(&app.admin, "/product-types/LINE-M").await.status(),
+        StatusCode::NOT_FOUND
+    );
+    let r = save(" base+gyro_scale_asymmetry ").await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let read = app.get_json("/product-types/LINE-M").await;
+    assert_eq!(read["model"], "base-24+gyro_scale_asymmetry");
+    let admin = s.get("/admin").await.text().await.unwrap();
+    let products = &admin[admin.find("id=\"products\"").unwrap()..];
+    assert!(products.contains("base-24+gyro_scale_asymmetry"), "{admin}");
+    // Saved again with the model left empty: the server's.
+    let r = save("").await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let read = app.get_json("/product-types/LINE-M").await;
+    assert_eq!(read["model"], serde_json::Value::Null);
+    assert_eq!(read["revision"], 2);
+    app.stop().await;
+}
+
+/// A form upload whose declared body is over the server's limit is refused
+/// before a byte of it is read (so the test speaks HTTP by hand), still as
+/// a page naming the data file and the limit, with the way back.
+#[tokio::test]
+async fn an_upload_over_the_body_limit_is_refused_as_a_page() {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    let app = spawn_app_with(0, |c| c.max_body_bytes = 1 << 20).await;
+    let station = app.create_token("station").await;
+    let s = app.sign_in(&station).await;
+    let addr = s.origin.trim_start_matches("http://").to_string();
+    let head = format!(
+        "POST /upload?csrf={} HTTP/1.1\r\nHost: {addr}\r\nCookie: {}\r\n\
+         Content-Type: multipart/form-data; boundary=xyz\r\nContent-Length: {}\r\n\r\n",
+        s.csrf,
+        s.cookie,
+        4u64 << 20
+    );
+    let mut tcp = tokio::net::TcpStream::connect(&addr).await.unwrap();
+    tcp.write_all(head.as_bytes()).await.unwrap();
+    let mut reply = Vec::new();
+    let _ = tokio::time::timeout(Duration::from_secs(5), tcp.read_to_end(&mut reply)).await;
+    let reply = String::from_utf8_lossy(&reply);
+    assert!(reply.starts_with("HTTP/1.1 413"), "{reply}");
+    assert!(reply.contains("content-type: text/html"), "{reply}");
+    assert!(reply.contains("data-part=\"data\""), "{reply}");
+    assert!(
+        text_of(&reply, "refusal-detail").contains("exceeds the limit of 1048576 bytes"),
+        "{reply}"
+    );
+    assert!(reply.contains("href=\"/upload\""), "{reply}");
     app.stop().await;
 }

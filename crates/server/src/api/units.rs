@@ -12,8 +12,11 @@ use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::runs::{ModelCheckBrief, VerdictView};
 use super::{parse_time, rfc3339, AppState};
-use crate::store::{JobCounts, JobId, ParamSpread, Review, RunId, UnitFilter, UnitSummary};
+use crate::store::{
+    JobCounts, JobId, Review, RunId, SpreadRun, UnitFilter, UnitSpread, UnitSummary,
+};
 use sinscal_core::accept::{LimitKind, ProductLimits, VerdictStatus};
+use sinscal_core::calib::ErrorModel;
 use sinscal_core::io::meta::validate_product;
 use sinscal_core::io::UnitSerial;
 use sinscal_core::model::PARAMETERS;
@@ -113,6 +116,8 @@ pub struct HistoryItem {
     /// The stored JSON, passed through: a page of 100 runs is 2400
     /// estimates, not worth parsing only to print again.
     pub parameters: Box<serde_json::value::RawValue>,
+    /// The error model the result was made with (null: not known).
+    pub model: Option<ErrorModel>,
     /// `clear`, or `needs_review` when the model check failed.
     pub review: Review,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -190,8 +195,31 @@ pub struct Repeatability {
     pub unit_serial: UnitSerial,
     /// Calibrated runs the statistics cover.
     pub runs: i64,
+    /// Those runs in time order, each with the model its result was made
+    /// with: statistics over runs of different models compare estimates
+    /// of different things.
+    pub run_models: Vec<RunModel>,
     pub parameters: Vec<ParameterRepeatability>,
     pub flagged: Vec<String>,
+}
+
+/// A run a repeatability covers and the model its result was made with.
+#[derive(Serialize)]
+pub struct RunModel {
+    pub run_id: RunId,
+    pub run_time: String,
+    /// Null: not known.
+    pub model: Option<ErrorModel>,
+}
+
+impl From<SpreadRun> for RunModel {
+    fn from(r: SpreadRun) -> Self {
+        RunModel {
+            run_id: r.run_id,
+            run_time: rfc3339(r.run_time),
+            model: r.model,
+        }
+    }
 }
 
 pub fn router() -> Router<AppState> {
@@ -284,6 +312,7 @@ async fn history(
         .map(|r| {
             Ok(HistoryItem {
                 verdict: r.verdict()?.map(VerdictView::from),
+                model: r.model()?,
                 parameters: serde_json::value::RawValue::from_string(r.parameters)
                     .map_err(|e| ApiError::Internal(e.to_string()))?,
                 run_id: r.run_id,
@@ -329,20 +358,26 @@ async fn repeatability(
         return Err(ApiError::NotFound(format!("no unit {serial}")));
     };
     let limits = unit_limits(&st, unit.product.as_deref()).await?;
-    let rows = st.store.repeatability(&serial, since, q.last).await?;
-    Ok(Json(unit_repeatability(&st, serial, rows, limits.as_ref())))
+    let spread = st.store.repeatability(&serial, since, q.last).await?;
+    Ok(Json(unit_repeatability(
+        &st,
+        serial,
+        spread,
+        limits.as_ref(),
+    )))
 }
 
-/// The spread of a unit's runs (`rows`, as the store read them), each
-/// parameter against `limits`' `max_repeatability` when it sets one, else
-/// the server's tolerance: the API's answer, and what a calibration
+/// The spread of a unit's runs (as the store read it), each parameter
+/// against `limits`' `max_repeatability` when it sets one, else the
+/// server's tolerance: the API's answer, and what a calibration
 /// certificate states.
 pub(crate) fn unit_repeatability(
     st: &AppState,
     serial: UnitSerial,
-    mut rows: Vec<ParamSpread>,
+    spread: UnitSpread,
     limits: Option<&ProductLimits>,
 ) -> Repeatability {
+    let mut rows = spread.parameters;
     // Canonical order (SPEC §2), not alphabetical.
     let order = |name: &str| {
         PARAMETERS
@@ -404,6 +439,7 @@ pub(crate) fn unit_repeatability(
     Repeatability {
         unit_serial: serial,
         runs,
+        run_models: spread.runs.into_iter().map(RunModel::from).collect(),
         parameters,
         flagged,
     }

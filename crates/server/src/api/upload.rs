@@ -23,8 +23,8 @@ use sha2::{Digest, Sha256};
 use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::upload_guard::{find_cause, paced, Budgeted, CpuBudget, CpuBudgetExceeded, Stalled};
+use super::upload_store::{check_span, store_run, Ingested, StoredRun};
 pub use super::upload_store::{queue_full, UploadAnswer};
-use super::upload_store::{store_run, Ingested, StoredRun};
 use super::{refuse_while_stopping, AppState};
 use crate::metrics::UploadOutcome;
 use sinscal_core::io::data::{CountsConversion, DataError, DataFormat, ReadLimits, RecordReader};
@@ -64,6 +64,41 @@ impl From<SinkError> for ApiError {
             SinkError::Data(d) => ApiError::InvalidData(d),
             SinkError::Io(e) => ApiError::from(e),
         }
+    }
+}
+
+/// The part of an upload form that was at fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UploadPart {
+    /// The run's metadata (`run.json`).
+    Metadata,
+    /// The run's data file.
+    Data,
+}
+
+impl UploadPart {
+    /// `error`, blamed on this part.
+    fn blame(self, error: ApiError) -> RefusedUpload {
+        RefusedUpload {
+            part: Some(self),
+            error,
+        }
+    }
+}
+
+/// A refused upload: the API's answer and, when one part of the form was
+/// at fault, which (the upload page names it).
+#[derive(Debug)]
+pub struct RefusedUpload {
+    pub part: Option<UploadPart>,
+    pub error: ApiError,
+}
+
+/// A refusal of the upload as a whole (the server's state, the form's
+/// shape, a run already stored).
+impl From<ApiError> for RefusedUpload {
+    fn from(error: ApiError) -> Self {
+        RefusedUpload { part: None, error }
     }
 }
 
@@ -333,7 +368,9 @@ pub async fn upload(
         axum::body::Body::from_stream(paced(body, st.config.upload_pace)),
     );
     let outcome = if multipart {
-        receive_multipart(&st, Some(serial.as_str()), req).await
+        receive_multipart(&st, Some(serial.as_str()), req)
+            .await
+            .map_err(|r| r.error)
     } else {
         let text = match (headers.get(METADATA_HEADER), &query.metadata) {
             (Some(h), _) => h.as_bytes().to_vec(),
@@ -363,6 +400,7 @@ pub async fn upload(
             return Err(e);
         }
     };
+    check_span(&st, &meta, &ingested)?;
     Ok(store_run(&st, &auth, meta, ingested).await?.answer())
 }
 
@@ -396,7 +434,7 @@ pub(crate) async fn upload_form(
     st: &AppState,
     auth: &Caller<roles::Upload>,
     req: Request,
-) -> Result<StoredRun, ApiError> {
+) -> Result<StoredRun, RefusedUpload> {
     let _permit = admit(st).await?;
     let (parts, body) = req.into_parts();
     let req = Request::from_parts(
@@ -404,7 +442,10 @@ pub(crate) async fn upload_form(
         axum::body::Body::from_stream(paced(body, st.config.upload_pace)),
     );
     match receive_multipart(st, None, req).await {
-        Ok((meta, ingested)) => store_run(st, auth, meta, ingested).await,
+        Ok((meta, ingested)) => {
+            check_span(st, &meta, &ingested).map_err(|e| UploadPart::Data.blame(e))?;
+            Ok(store_run(st, auth, meta, ingested).await?)
+        }
         Err(e) => {
             st.metrics.upload(UploadOutcome::Refused);
             Err(e)
@@ -416,7 +457,8 @@ async fn receive_multipart(
     st: &AppState,
     serial: Option<&str>,
     req: Request,
-) -> Result<(RunMetadata, Ingested), ApiError> {
+) -> Result<(RunMetadata, Ingested), RefusedUpload> {
+    use UploadPart::{Data, Metadata};
     let mut form = Multipart::from_request(req, st)
         .await
         .map_err(|e| ApiError::BadRequest(e.body_text()))?;
@@ -426,36 +468,45 @@ async fn receive_multipart(
         match field.name() {
             Some("metadata") if meta.is_none() => {
                 let mut text = Vec::new();
-                while let Some(chunk) = field.chunk().await.map_err(multipart_error)? {
+                while let Some(chunk) = field
+                    .chunk()
+                    .await
+                    .map_err(|e| Metadata.blame(multipart_error(e)))?
+                {
                     text.extend_from_slice(&chunk);
                     if text.len() > MAX_METADATA_BYTES {
-                        return Err(ApiError::PayloadTooLarge(format!(
+                        return Err(Metadata.blame(ApiError::PayloadTooLarge(format!(
                             "the metadata part exceeds {MAX_METADATA_BYTES} bytes"
-                        )));
+                        ))));
                     }
                 }
-                meta = Some(parse_metadata(&text, serial)?);
+                meta = Some(parse_metadata(&text, serial).map_err(|e| Metadata.blame(e))?);
             }
             Some("data") if data.is_none() => {
-                data = Some(ingest(st, field.map_err(multipart_error), meta.as_ref()).await?);
+                let ingested = ingest(st, field.map_err(multipart_error), meta.as_ref()).await;
+                data = Some(ingested.map_err(|e| Data.blame(e))?);
             }
             Some(name @ ("metadata" | "data")) => {
-                return Err(ApiError::BadRequest(format!(
-                    "the `{name}` part is given twice"
-                )))
+                return Err(
+                    ApiError::BadRequest(format!("the `{name}` part is given twice")).into(),
+                )
             }
             other => {
                 return Err(ApiError::BadRequest(format!(
                     "unexpected part {:?}: the form has a `metadata` part and a `data` part",
                     other.unwrap_or("")
-                )))
+                ))
+                .into())
             }
         }
     }
-    let meta =
-        meta.ok_or_else(|| ApiError::BadRequest("the form has no `metadata` part".into()))?;
+    let meta = meta.ok_or_else(|| {
+        Metadata.blame(ApiError::BadRequest(
+            "the form has no `metadata` part".into(),
+        ))
+    })?;
     let mut data =
-        data.ok_or_else(|| ApiError::BadRequest("the form has no `data` part".into()))?;
+        data.ok_or_else(|| Data.blame(ApiError::BadRequest("the form has no `data` part".into())))?;
     if data.checked.is_none() {
         // The data came before the metadata: it was spooled unchecked and
         // is validated from the temp file now.
@@ -473,7 +524,8 @@ async fn receive_multipart(
             count_records(budgeted, &check).map_err(SinkError::Data)
         })
         .await
-        .map_err(|e| ApiError::Internal(format!("validation task: {e}")))??;
+        .map_err(|e| ApiError::Internal(format!("validation task: {e}")))?
+        .map_err(|e| Data.blame(e.into()))?;
         data.checked = Some(checked);
     }
     Ok((meta, data))

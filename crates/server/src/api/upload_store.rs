@@ -116,6 +116,28 @@ fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<StoredRu
     })
 }
 
+/// Refuses a run too short to calibrate, before it is stored: a fault of
+/// its data file.
+pub(super) fn check_span(
+    st: &AppState,
+    meta: &RunMetadata,
+    data: &Ingested,
+) -> Result<(), ApiError> {
+    let (records, _) = data.checked.unwrap_or((0, false));
+    let span_s = records.saturating_sub(1) as f64 / meta.sample_rate_hz;
+    if span_s < MIN_RUN_SECONDS {
+        st.metrics.upload(UploadOutcome::Refused);
+        return Err(ApiError::Unprocessable(format!(
+            "the run spans {span_s:.2} s ({records} records at {} Hz): a calibration needs at \
+             least {MIN_RUN_SECONDS} s (two dwells of 20 s and a turn between them)",
+            meta.sample_rate_hz
+        )));
+    }
+    Ok(())
+}
+
+/// Stores a checked upload (its span checked by [`check_span`]): the file
+/// committed, then the run and job rows.
 pub(super) async fn store_run(
     st: &AppState,
     auth: &Auth,
@@ -128,15 +150,6 @@ pub(super) async fn store_run(
         .parse()
         .map_err(ApiError::InvalidMetadata)?;
     let (records, gzip) = data.checked.unwrap_or((0, false));
-    let span_s = records.saturating_sub(1) as f64 / meta.sample_rate_hz;
-    if span_s < MIN_RUN_SECONDS {
-        st.metrics.upload(UploadOutcome::Refused);
-        return Err(ApiError::Unprocessable(format!(
-            "the run spans {span_s:.2} s ({records} records at {} Hz): a calibration needs at \
-             least {MIN_RUN_SECONDS} s (two dwells of 20 s and a turn between them)",
-            meta.sample_rate_hz
-        )));
-    }
     let metadata = serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?;
     if let Some(existing) = st.store.find_run_by_hash(&serial, &data.sha256).await? {
         st.metrics.upload(UploadOutcome::Duplicate);

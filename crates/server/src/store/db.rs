@@ -452,7 +452,9 @@ mod tests {
             Some("{}")
         );
         let serial = "OLD-1".parse().unwrap();
-        let spread = store.repeatability(&serial, i64::MIN, None).await.unwrap();
+        let over = store.repeatability(&serial, i64::MIN, None).await.unwrap();
+        assert_eq!(over.runs.len(), 3);
+        let spread = over.parameters;
         assert_eq!(spread.len(), PARAMETERS.len());
         let s = &spread[0];
         assert_eq!(s.n, 3);
@@ -463,6 +465,8 @@ mod tests {
             .repeatability(&serial, i64::MIN, Some(2))
             .await
             .unwrap();
+        assert_eq!(last2.runs.len(), 2);
+        let last2 = last2.parameters;
         assert_eq!(last2[0].n, 2);
         assert!((last2[0].mean - 500.25).abs() < 1e-9);
         store.close().await;

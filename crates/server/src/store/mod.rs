@@ -63,7 +63,7 @@ pub use jobs::{Adoption, CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow}
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};
 pub use queue::{Claim, Fence, OnInadequate};
-pub use results::{HistoryRow, ThermalRow, UnitFilter, UnitSummary};
+pub use results::{HistoryRow, SpreadRun, ThermalRow, UnitFilter, UnitSpread, UnitSummary};
 pub use runs::{InsertOutcome, NewRun, Review, RunDeletion, RunFile, RunRow};
 pub use spread::ParamSpread;
 pub use tokens::TokenRow;

@@ -8,6 +8,7 @@ use super::dialect::{lock_key, product_key, Backend};
 use super::error::StoreError;
 use super::verdicts::refresh_product;
 use sinscal_core::accept::ProductLimits;
+use sinscal_core::calib::ErrorModel;
 
 /// A product type as stored.
 #[derive(Clone, Debug, FromRow)]
@@ -16,6 +17,9 @@ pub struct ProductTypeRow {
     pub description: Option<String>,
     /// The limits as JSON (`accept::ProductLimits`'s form).
     pub limits: String,
+    /// The error model its line calibrates with (`ErrorModel`'s spelling;
+    /// `None`: the server's).
+    pub model: Option<String>,
     pub revision: i64,
     pub created_at: i64,
     pub updated_at: i64,
@@ -28,6 +32,17 @@ impl ProductTypeRow {
         ProductLimits::from_json(&value, "limits")
             .map_err(|e| StoreError::Corrupt(format!("product type {}: {e}", self.name)))
     }
+
+    /// The line's error model, parsed (`None`: the server's).
+    pub fn parsed_model(&self) -> Result<Option<ErrorModel>, StoreError> {
+        self.model
+            .as_deref()
+            .map(|m| {
+                m.parse()
+                    .map_err(|e| StoreError::Corrupt(format!("product type {}: {e}", self.name)))
+            })
+            .transpose()
+    }
 }
 
 /// What a product type's new version says.
@@ -36,11 +51,14 @@ pub struct ProductTypeChange<'a> {
     pub name: &'a str,
     pub description: Option<&'a str>,
     pub limits: &'a ProductLimits,
+    /// The error model the line's calibrations carry (`None`: the
+    /// server's).
+    pub model: Option<&'a ErrorModel>,
     /// The token making the change, kept with the revision.
     pub by: &'a str,
 }
 
-const COLUMNS: &str = "name, description, limits, revision, created_at, updated_at";
+const COLUMNS: &str = "name, description, limits, model, revision, created_at, updated_at";
 
 impl Store {
     pub async fn list_product_types(&self) -> Result<Vec<ProductTypeRow>, StoreError> {
@@ -73,12 +91,13 @@ impl Store {
         let limits = serde_json::to_string(change.limits)?;
         let revision = next_revision(&mut tx, change.name).await?;
         let created = sqlx::query(
-            "INSERT INTO product_types (name, description, limits, revision, created_at, updated_at)
-             VALUES ($1, $2, $3, $4, $5, $5) ON CONFLICT (name) DO NOTHING",
+            "INSERT INTO product_types (name, description, limits, model, revision, created_at, updated_at)
+             VALUES ($1, $2, $3, $4, $5, $6, $6) ON CONFLICT (name) DO NOTHING",
         )
         .bind(change.name)
         .bind(change.description)
         .bind(&limits)
+        .bind(change.model.map(ErrorModel::to_string))
         .bind(revision)
         .bind(now)
         .execute(&mut *tx)
@@ -105,11 +124,13 @@ impl Store {
         let limits = serde_json::to_string(change.limits)?;
         let revision = next_revision(&mut tx, change.name).await?;
         let updated = sqlx::query(
-            "UPDATE product_types SET description = $1, limits = $2, revision = $3, updated_at = $4
-             WHERE name = $5",
+            "UPDATE product_types SET description = $1, limits = $2, model = $3, revision = $4,
+                    updated_at = $5
+             WHERE name = $6",
         )
         .bind(change.description)
         .bind(&limits)
+        .bind(change.model.map(ErrorModel::to_string))
         .bind(revision)
         .bind(now)
         .bind(change.name)
@@ -176,13 +197,15 @@ async fn record_revision(
     now: i64,
 ) -> Result<Option<ProductTypeRow>, StoreError> {
     sqlx::query(
-        "INSERT INTO product_type_revisions (name, revision, description, limits, changed_at, changed_by)
-         VALUES ($1, $2, $3, $4, $5, $6)",
+        "INSERT INTO product_type_revisions (name, revision, description, limits, model, changed_at,
+                                             changed_by)
+         VALUES ($1, $2, $3, $4, $5, $6, $7)",
     )
     .bind(change.name)
     .bind(revision)
     .bind(change.description)
     .bind(limits)
+    .bind(change.model.map(ErrorModel::to_string))
     .bind(now)
     .bind(change.by)
     .execute(&mut **tx)
@@ -267,6 +290,7 @@ mod tests {
                 name: "P1",
                 description: Some("test"),
                 limits,
+                model: None,
                 by: "admin",
             }
         }

@@ -76,6 +76,9 @@ pub struct HistoryRow {
     pub run_time: i64,
     pub completed_at: i64,
     pub parameters: String,
+    /// The model the result was made with, as stored (read through
+    /// [`HistoryRow::model`]).
+    pub model: Option<String>,
     #[sqlx(try_from = "OptionalFlag")]
     pub model_adequate: Option<bool>,
     pub model_summary: Option<String>,
@@ -86,6 +89,12 @@ pub struct HistoryRow {
 }
 
 impl HistoryRow {
+    /// The model the result was made with (`None`: not known, a result
+    /// seeded without one).
+    pub fn model(&self) -> Result<Option<ErrorModel>, StoreError> {
+        stored_model(self.run_id, self.model.as_deref())
+    }
+
     pub fn verdict(&self) -> Result<Option<StoredVerdict>, StoreError> {
         StoredVerdict::from_columns(
             self.run_id,
@@ -94,6 +103,63 @@ impl HistoryRow {
             self.verdict_revision,
             self.verdict_at,
         )
+    }
+}
+
+/// A result's model column, parsed.
+fn stored_model(run_id: RunId, model: Option<&str>) -> Result<Option<ErrorModel>, StoreError> {
+    model
+        .map(|m| {
+            m.parse()
+                .map_err(|e| StoreError::Corrupt(format!("the result of run {run_id}: {e}")))
+        })
+        .transpose()
+}
+
+/// A unit's parameter spread over its calibrated runs, and the runs it
+/// covers.
+#[derive(Clone, Debug)]
+pub struct UnitSpread {
+    /// The runs, in time order, each with the model it was made with.
+    pub runs: Vec<SpreadRun>,
+    pub parameters: Vec<ParamSpread>,
+}
+
+/// A run a spread covers.
+#[derive(Clone, Debug)]
+pub struct SpreadRun {
+    pub run_id: RunId,
+    pub run_time: i64,
+    /// `None`: not known (a result seeded without one).
+    pub model: Option<ErrorModel>,
+}
+
+/// A result's row as the spread reads it.
+#[derive(FromRow)]
+struct SpreadRow {
+    run_id: RunId,
+    run_time: i64,
+    model: Option<String>,
+    param_values: Vec<u8>,
+}
+
+impl UnitSpread {
+    /// The spread of `rows`, given in time order.
+    fn of(rows: Vec<SpreadRow>) -> Result<Self, StoreError> {
+        let mut acc = SpreadAccumulator::default();
+        let mut runs = Vec::with_capacity(rows.len());
+        for r in rows {
+            acc.push(&r.param_values);
+            runs.push(SpreadRun {
+                model: stored_model(r.run_id, r.model.as_deref())?,
+                run_id: r.run_id,
+                run_time: r.run_time,
+            });
+        }
+        Ok(UnitSpread {
+            runs,
+            parameters: acc.finish(),
+        })
     }
 }
 
@@ -254,7 +320,7 @@ impl Store {
             .fetch_one(&self.read)
             .await?;
         let rows = sqlx::query_as(&format!(
-            "SELECT run_id, job_id, run_time, completed_at, parameters, model_adequate,
+            "SELECT run_id, job_id, run_time, completed_at, parameters, model, model_adequate,
                     model_summary, verdict_detail, verdict_product, verdict_revision, verdict_at
              FROM results
              WHERE {filter}
@@ -299,21 +365,24 @@ impl Store {
     }
 
     /// Per-parameter spread over a unit's calibrated runs with
-    /// `run_time >= since`, the `last` most recent of them (`None`: all).
+    /// `run_time >= since`, the `last` most recent of them (`None`: all),
+    /// and those runs with their models.
     ///
-    /// One range scan of `results_unit_time_run` reading one value blob per
-    /// run, in time order (ties by run id, as history orders them).
+    /// One range scan of `results_unit_time_run` reading one value blob
+    /// (with the run's id, time and model) per run, in time order (ties by
+    /// run id, as history orders them).
     pub async fn repeatability(
         &self,
         serial: &UnitSerial,
         since: i64,
         last: Option<i64>,
-    ) -> Result<Vec<ParamSpread>, StoreError> {
+    ) -> Result<UnitSpread, StoreError> {
         // Newest first so that LIMIT keeps the `last` most recent (all of
         // them: the largest LIMIT both engines take), then back to time
         // order.
-        let mut blobs: Vec<Vec<u8>> = sqlx::query_scalar(
-            "SELECT param_values FROM results WHERE unit_serial = $1 AND run_time >= $2
+        let mut rows: Vec<SpreadRow> = sqlx::query_as(
+            "SELECT run_id, run_time, model, param_values FROM results
+             WHERE unit_serial = $1 AND run_time >= $2
              ORDER BY run_time DESC, run_id DESC LIMIT $3",
         )
         .bind(serial.as_str())
@@ -321,26 +390,22 @@ impl Store {
         .bind(last.unwrap_or(i64::MAX))
         .fetch_all(&self.read)
         .await?;
-        blobs.reverse();
-        let mut acc = SpreadAccumulator::default();
-        for b in &blobs {
-            acc.push(b);
-        }
-        Ok(acc.finish())
+        rows.reverse();
+        UnitSpread::of(rows)
     }
 
     /// Per-parameter spread over a unit's calibrated runs up to and
-    /// including `run_time` (ties by run id, up to `run_id`): the runs a
-    /// certificate of that run states its repeatability over, which later
-    /// runs do not change.
+    /// including `run_time` (ties by run id, up to `run_id`), with those
+    /// runs and their models: the runs a certificate of that run states its
+    /// repeatability over, which later runs do not change.
     pub async fn repeatability_through(
         &self,
         serial: &UnitSerial,
         run_time: i64,
         run_id: RunId,
-    ) -> Result<Vec<ParamSpread>, StoreError> {
-        let blobs: Vec<Vec<u8>> = sqlx::query_scalar(
-            "SELECT param_values FROM results
+    ) -> Result<UnitSpread, StoreError> {
+        let rows: Vec<SpreadRow> = sqlx::query_as(
+            "SELECT run_id, run_time, model, param_values FROM results
              WHERE unit_serial = $1 AND (run_time < $2 OR (run_time = $2 AND run_id <= $3))
              ORDER BY run_time, run_id",
         )
@@ -349,11 +414,7 @@ impl Store {
         .bind(run_id)
         .fetch_all(&self.read)
         .await?;
-        let mut acc = SpreadAccumulator::default();
-        for b in &blobs {
-            acc.push(b);
-        }
-        Ok(acc.finish())
+        UnitSpread::of(rows)
     }
 
     /// Stores a finished result for a run directly (benchmark seeding and

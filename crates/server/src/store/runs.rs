@@ -16,7 +16,8 @@ use sinscal_core::io::UnitSerial;
 
 /// A run's row with its calibration job and its result's columns (`r` the
 /// run).
-const RUN_COLUMNS: &str = "r.*, j.id AS job_id, res.run_id IS NOT NULL AS calibrated,
+const RUN_COLUMNS: &str =
+    "r.*, j.id AS job_id, j.state AS job_state, res.run_id IS NOT NULL AS calibrated,
     res.model_adequate, res.model_summary, res.verdict_detail,
     res.verdict_product, res.verdict_revision, res.verdict_at FROM runs r
     JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
@@ -52,6 +53,8 @@ pub struct RunRow {
     /// were recorded).
     pub uploaded_by: Option<String>,
     pub job_id: JobId,
+    /// Its calibration job's state.
+    pub job_state: JobState,
     /// The model adopted for the run from a diagnosis, and when (`None`:
     /// its calibration carries its product type's or the server's).
     #[sqlx(default)]
@@ -199,7 +202,7 @@ impl Store {
         sha256: &str,
     ) -> Result<Option<RunRow>, StoreError> {
         Ok(sqlx::query_as(
-            "SELECT r.*, j.id AS job_id FROM runs r
+            "SELECT r.*, j.id AS job_id, j.state AS job_state FROM runs r
              JOIN jobs j ON j.run_id = r.id AND j.kind = 'calibrate'
              WHERE r.unit_serial = $1 AND r.sha256 = $2",
         )

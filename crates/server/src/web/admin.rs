@@ -1,5 +1,6 @@
 //! The admin page: tokens (issue, revoke) and product types (create,
-//! change, delete), through the API's own action functions. A new token's
+//! change, delete; their limits and their line's error model), through the
+//! API's own action functions. A new token's
 //! secret is shown once, in the answer to the form that made it.
 
 use axum::extract::{Path, State};
@@ -14,10 +15,11 @@ use super::format;
 use super::layout::{self, action_button};
 use super::session::{see_other, CsrfForm};
 use crate::api::auth::roles;
-use crate::api::products::{remove_product_type, save_product_type};
+use crate::api::products::{remove_product_type, save_product_type, ProductTypeInput};
 use crate::api::tokens::{issue_token, revoke, NewTokenRequest, NewTokenView};
 use crate::api::{parse_id, AppState};
 use crate::store::Role;
+use sinscal_core::calib::Effect;
 
 /// An example of the limits' JSON form, shown in an empty form.
 const LIMITS_EXAMPLE: &str = r#"{
@@ -63,10 +65,12 @@ async fn render(
         }
         h2 { "Product types" }
         table #products {
-            tr { th { "Name" } th { "Description" } th.num { "Revision" } th { "Changed" } th { "Limits" } th {} }
+            tr { th { "Name" } th { "Description" } th { "Model" } th.num { "Revision" } th { "Changed" } th { "Limits" } th {} }
             @for p in &products {
                 tr {
-                    td { (p.name) } td { (p.description.as_deref().unwrap_or("")) } td.num { (p.revision) } td { (format::time(p.updated_at)) }
+                    td { (p.name) } td { (p.description.as_deref().unwrap_or("")) }
+                    td { @if let Some(m) = &p.model { code { (m) } } @else { span.muted { "the server's" } } }
+                    td.num { (p.revision) } td { (format::time(p.updated_at)) }
                     td { details { summary { "JSON" } pre { (p.limits) } } }
                     td { (action_button(session, &format!("/admin/products/{}/delete", p.name), "Delete", "danger")) }
                 }
@@ -74,6 +78,7 @@ async fn render(
         }
         h3 { "Create or change a product type" }
         p.muted { "Limits per canonical parameter, in its unit (SPEC §2): " code { "max_abs_value" } ", " code { "max_sigma" } ", " code { "max_repeatability" } ". Saving a name that exists makes its next revision; the verdicts it touches are judged again." }
+        p.muted { "The model is the error model the line's runs are calibrated with from their next calibration job: " code { "base" } " or " code { "base" } " followed by " code { "+" } " and an effect for each effect the line shows (" (effect_names()) "). Empty: the server's model." }
         form.stack #product method="post" action="/admin/products" {
             input type="hidden" name="csrf" value=(session.csrf());
             label for="name" { "Name" }
@@ -82,12 +87,19 @@ async fn render(
             input #description type="text" name="description" maxlength="500";
             label for="limits" { "Limits (JSON)" }
             textarea #limits name="limits" required { (LIMITS_EXAMPLE) }
+            label for="model" { "Model" }
+            input #model type="text" name="model" maxlength="200" placeholder="base+accel_delay";
             button.primary type="submit" { "Save" }
         }
     };
     Ok(Html(
         layout::page("Admin", Some(session), body).into_string(),
     ))
+}
+
+/// The effects a model may add, as the form's note lists them.
+fn effect_names() -> String {
+    Effect::ALL.map(Effect::name).join(", ")
 }
 
 fn issued_notice(t: &NewTokenView) -> Markup {
@@ -154,6 +166,9 @@ pub struct ProductForm {
     #[serde(default)]
     description: String,
     limits: String,
+    /// Empty: the server's model.
+    #[serde(default)]
+    model: String,
 }
 
 pub async fn save_product(
@@ -167,8 +182,15 @@ pub async fn save_product(
         .map_err(|e| PageError::bad_request(format!("the limits are not JSON: {e}")))?;
     let description = form.description.trim();
     let description = (!description.is_empty()).then_some(description);
+    let model = form.model.trim();
+    let input = ProductTypeInput {
+        name,
+        description,
+        limits: &limits,
+        model: (!model.is_empty()).then_some(model),
+    };
     let exists = st.store.get_product_type(name).await?.is_some();
-    save_product_type(&st, session.caller(), name, description, &limits, !exists).await?;
+    save_product_type(&st, session.caller(), input, !exists).await?;
     Ok(see_other("/admin"))
 }
 

@@ -19,17 +19,24 @@ pub enum PageError {
 
 impl From<ApiError> for PageError {
     fn from(e: ApiError) -> Self {
-        let status = e.status();
-        let detail = match e {
-            // Logged where it happened; not for the page.
-            ApiError::Internal(cause) => {
-                tracing::error!(%cause, "page failed");
-                "the server failed to answer; the cause is in its log".to_string()
-            }
-            other => other.to_string(),
-        };
+        let (status, detail) = shown(e);
         PageError::Status(status, detail)
     }
+}
+
+/// The status of an API error and its words for a page: the API's detail,
+/// but an internal cause only in the log.
+pub fn shown(e: ApiError) -> (StatusCode, String) {
+    let status = e.status();
+    let detail = match e {
+        // Logged where it happened; not for the page.
+        ApiError::Internal(cause) => {
+            tracing::error!(%cause, "page failed");
+            "the server failed to answer; the cause is in its log".to_string()
+        }
+        other => other.to_string(),
+    };
+    (status, detail)
 }
 
 impl From<StoreError> for PageError {

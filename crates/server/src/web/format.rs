@@ -1,7 +1,9 @@
 //! How numbers and times read on a page: enough digits for a parameter
 //! known to a few ppm, no more, and times in UTC as the API gives them.
 
+use crate::store::JobState;
 use sinscal_core::accept::VerdictStatus;
+use sinscal_core::calib::ErrorModel;
 
 /// A value with `digits` significant digits as the certificate writes it
 /// (`certificate_sheet::sig`), a missing one as a dash of the page's.
@@ -47,6 +49,32 @@ pub fn verdict(status: Option<VerdictStatus>) -> (&'static str, &'static str) {
     }
 }
 
+/// Where a run stands as words and a CSS class: its verdict once it is
+/// calibrated, else how far its calibration job got.
+pub fn run_outcome(
+    calibrated: bool,
+    job: JobState,
+    verdict: Option<VerdictStatus>,
+) -> (&'static str, &'static str) {
+    if calibrated {
+        return self::verdict(verdict);
+    }
+    match job {
+        JobState::Queued => ("calibration queued", "none"),
+        JobState::Running => ("calibrating", "none"),
+        JobState::Failed | JobState::DeadLetter => ("calibration failed", "bad"),
+        JobState::Cancelled => ("calibration cancelled", "none"),
+        // Succeeded without a result: not a state the store keeps.
+        JobState::Succeeded => ("not judged", "none"),
+    }
+}
+
+/// A result's model as its name (`base-24+accel_delay`), a dash when not
+/// known.
+pub fn model(m: Option<&ErrorModel>) -> String {
+    m.map_or_else(|| "—".into(), ErrorModel::to_string)
+}
+
 /// The first part of an id, enough to tell runs apart on a page.
 pub fn short_id(id: impl std::fmt::Display) -> String {
     let id = id.to_string();
@@ -73,6 +101,29 @@ mod tests {
         assert_eq!(sig_to(0.0005, 0.00079), "0.00050");
         assert_eq!(sig_to(0.0, 0.1), "0");
         assert_eq!(sig_to(2.5, 0.0), "2.50");
+    }
+
+    #[test]
+    fn a_run_reads_as_its_verdict_once_calibrated() {
+        use VerdictStatus as V;
+        let words = |calibrated, job, v| run_outcome(calibrated, job, v).0;
+        assert_eq!(
+            words(true, JobState::Succeeded, Some(V::Accepted)),
+            "accepted"
+        );
+        assert_eq!(
+            words(true, JobState::Running, Some(V::NeedsReview)),
+            "needs review"
+        );
+        assert_eq!(
+            words(true, JobState::Succeeded, Some(V::Rejected)),
+            "rejected"
+        );
+        assert_eq!(words(false, JobState::Queued, None), "calibration queued");
+        assert_eq!(
+            words(false, JobState::DeadLetter, None),
+            "calibration failed"
+        );
     }
 
     #[test]

@@ -22,6 +22,7 @@ mod noise;
 mod noise_charts;
 mod run;
 mod run_plots;
+mod run_verdict;
 mod session;
 mod signin;
 mod unit;
@@ -48,6 +49,9 @@ pub fn router(max_body_bytes: u64) -> Router<AppState> {
         .route("/upload", get(upload::page).post(upload::submit))
         .layer(DefaultBodyLimit::max(limit))
         .layer(RequestBodyLimitLayer::new(limit))
+        .layer(axum::middleware::map_response(move |resp| async move {
+            upload::oversized_as_page(resp, max_body_bytes)
+        }))
         .layer(axum::middleware::from_fn(
             crate::api::close_after_refused_upload,
         ));

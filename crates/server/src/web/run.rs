@@ -1,6 +1,7 @@
 //! A run's page: what was uploaded, its job's progress (live while it
-//! runs), and once calibrated the 24 parameters (and effect parameters)
-//! against the product's limits, the verdict, the model check, the
+//! runs), the verdict (or what it waits for) to every role that reads the
+//! run, and to engineers once calibrated the 24 parameters (and effect
+//! parameters) against the product's limits, the model check, the
 //! cross-check, the convergence plots (the seed paper's Fig. 3), the
 //! per-dwell residuals, downloads, and the actions the session's role may
 //! take.
@@ -16,6 +17,7 @@ use super::error::PageError;
 use super::format;
 use super::layout::{self, action_button};
 use super::run_plots::{convergence_charts, residual_chart};
+use super::run_verdict::{pending_verdict, verdict_block};
 use super::session::{see_other, CsrfForm};
 use crate::api::adopt::adopt_latest_diagnosis;
 use crate::api::auth::roles::{self, Implies};
@@ -129,8 +131,9 @@ pub async fn page(
                 }
             }
         }
+        @if run.calibrated { (verdict_block(verdict.as_ref())) }
+        @else { (pending_verdict(&run)) }
         @if let Some(r) = &result {
-            (verdict_block(verdict.as_ref()))
             div.actions {
                 "Download: "
                 a href={ "/runs/" (run.id) "/files/result.json" } download { "result JSON" }
@@ -231,33 +234,6 @@ pub async fn progress(
             .insert("hx-refresh", HeaderValue::from_static("true"));
     }
     Ok(resp)
-}
-
-fn verdict_block(v: Option<&StoredVerdict>) -> Markup {
-    let (word, class) = format::verdict(v.map(|v| v.status()));
-    html! {
-        section #verdict {
-            h2 { "Verdict: " span class={ "badge " (class) } { (word) } }
-            @if let Some(v) = v {
-                p.muted { "Judged " (format::time(v.judged_at))
-                    @if let Some(p) = &v.product { " against product type " strong { (p) } @if let Some(r) = v.revision { " (revision " (r) ")" } }
-                    @else { " without a product type (no limits)" } }
-                @if !v.verdict.failed().is_empty() {
-                    h3 { "Limits failed" }
-                    table.failed {
-                        tr { th { "Parameter" } th { "Limit" } th.num { "Bound" } th.num { "Actual" } th { "Unit" } }
-                        @for f in v.verdict.failed() {
-                            tr.fail { td { (f.parameter) } td { (f.limit.as_str()) } td.num { (format::sig(f.max, 4)) } td.num { (format::sig(f.actual, 4)) } td { (f.unit) } }
-                        }
-                    }
-                }
-                @if !v.verdict.reasons().is_empty() {
-                    h3 { "Why it needs review" }
-                    ul { @for r in v.verdict.reasons() { li { (r.describe()) } } }
-                }
-            }
-        }
-    }
 }
 
 fn accepted(verdict: Option<&StoredVerdict>) -> bool {

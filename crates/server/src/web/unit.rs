@@ -56,7 +56,11 @@ pub async fn page(
         .store
         .history(&serial, (i64::MIN, i64::MAX), None, MAX_RUNS, 0)
         .await?;
-    let spread = st.store.repeatability(&serial, i64::MIN, None).await?;
+    let spread = st
+        .store
+        .repeatability(&serial, i64::MIN, None)
+        .await?
+        .parameters;
     let limits = crate::api::units::unit_limits(&st, unit.product.as_deref()).await?;
     let mut runs = Vec::with_capacity(rows.len());
     for r in &rows {
@@ -67,6 +71,7 @@ pub async fn page(
             run_id: r.run_id,
             run_time: r.run_time,
             parameters,
+            model: r.model()?,
             verdict: r.verdict()?.map(|v| v.status()),
             model_adequate: r.model_adequate,
         });
@@ -116,7 +121,7 @@ fn history(serial: &str, runs: &[UnitRun], q: &UnitQuery) -> Markup {
         form method="get" action={ "/units/" (serial) } {
             table #history {
                 thead { tr {
-                    th { "Run date" } th { "Run" } th { "Verdict" } th { "Model check" }
+                    th { "Run date" } th { "Run" } th { "Model" } th { "Verdict" } th { "Model check" }
                     th { "A" } th { "B" }
                 } }
                 tbody {
@@ -125,6 +130,7 @@ fn history(serial: &str, runs: &[UnitRun], q: &UnitQuery) -> Markup {
                         tr {
                             td { (format::time(r.run_time)) }
                             td { a href={ "/runs/" (r.run_id) } { code { (format::short_id(r.run_id)) } } }
+                            td { (format::model(r.model.as_ref())) }
                             td { span class={ "badge " (class) } { (word) } }
                             td { @match r.model_adequate {
                                 Some(true) => "adequate",

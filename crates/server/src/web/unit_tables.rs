@@ -1,5 +1,5 @@
 //! The unit page's two views of its runs: the repeatability table (each
-//! run's values, mean, standard deviation, range, largest change between
+//! run's model and values, mean, standard deviation, range, largest change between
 //! consecutive runs, flags) and one trend chart per parameter (the runs
 //! against their dates, their mean and spread, the product's limits).
 
@@ -11,7 +11,7 @@ use super::format;
 use crate::plot::{Band, Chart, Point, Series, Style, XAxis, YRange};
 use crate::store::{ParamSpread, RunId};
 use sinscal_core::accept::{LimitKind, ParameterLimits, ProductLimits, VerdictStatus};
-use sinscal_core::calib::ParameterEstimate;
+use sinscal_core::calib::{ErrorModel, ParameterEstimate};
 use sinscal_core::model::{Group, PARAMETERS};
 
 /// Runs shown as columns unless all are asked for.
@@ -22,6 +22,8 @@ pub struct UnitRun {
     pub run_id: RunId,
     pub run_time: i64,
     pub parameters: BTreeMap<String, ParameterEstimate>,
+    /// The model its result was made with (`None`: not known).
+    pub model: Option<ErrorModel>,
     pub verdict: Option<VerdictStatus>,
     pub model_adequate: Option<bool>,
 }
@@ -62,6 +64,12 @@ pub fn repeatability_table(
                     @for r in shown { th.num title=(r.run_id) { (format::date(r.run_time)) } }
                     th.num { "Mean" } th.num { "Std" } th.num { "Range" } th.num { "Largest change" }
                     th.num { "Limit" } th { "Flags" }
+                }
+                // The model each run's result was made with, under its date.
+                tr #run-models {
+                    td { "model" } td {}
+                    @for r in shown { td.num { (format::model(r.model.as_ref())) } }
+                    td colspan="6" { @if mixed_models(runs) { span.unverified { "runs of different models" } } }
                 } }
                 tbody {
                     @for (i, p) in PARAMETERS.iter().enumerate() {
@@ -86,6 +94,12 @@ pub fn repeatability_table(
             }
         }
     }
+}
+
+/// Whether the runs' results were made with more than one model (a result
+/// of an unknown model counts as one of its own).
+fn mixed_models(runs: &[UnitRun]) -> bool {
+    runs.windows(2).any(|w| w[0].model != w[1].model)
 }
 
 /// Paints that keep their meaning on every trend chart: the product's
