@@ -18,14 +18,14 @@
 //! gyro noise. Left out at navigation grade, where the first dwell's
 //! gyrocompass is exact enough.
 
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::error::CalibError;
-use super::prescan::first_dwell;
+use super::prescan::{first_dwell, Prescan};
+use super::run::{RecordSource, RunInfo};
 use super::timed::timed_records;
-use super::walk::PassContext;
 use crate::estimation::align;
 use crate::model::Compensator;
 use crate::nav::attitude::rotvec_to_dcm;
@@ -59,6 +59,17 @@ impl RunHeading {
     }
 }
 
+/// What the solution reads: the run, its scan and its white gyro noise.
+#[derive(Clone, Copy)]
+pub(crate) struct HeadingInputs<'a> {
+    pub source: &'a dyn RecordSource,
+    pub run: &'a RunInfo,
+    pub scan: &'a Prescan,
+    /// rad/√s.
+    pub arw: f64,
+    pub cancel: &'a AtomicBool,
+}
+
 /// One dwell's sums over its records: Σ Dᵀ·dt, Σ dθ and Σ dt.
 #[derive(Clone, Copy)]
 struct DwellSums {
@@ -69,7 +80,10 @@ struct DwellSums {
 
 /// The start heading and the gyro bias of the records as `comp`
 /// compensates them.
-pub(crate) fn run_heading(ctx: &PassContext, comp: &Compensator) -> Result<RunHeading, CalibError> {
+pub(crate) fn run_heading(
+    ctx: &HeadingInputs,
+    comp: &Compensator,
+) -> Result<RunHeading, CalibError> {
     let dt = 1.0 / ctx.run.sample_rate_hz;
     let f_b = comp.accel(&(Vector3::from(first_dwell(ctx.scan)?.mean_f_b) * dt), dt) / dt;
     let c_level = align::coarse_level(&f_b)?;
@@ -87,7 +101,7 @@ pub(crate) fn run_heading(ctx: &PassContext, comp: &Compensator) -> Result<RunHe
 /// Each dwell's sums, the records compensated by `comp` and `bias` taken
 /// out of them.
 fn dwell_sums(
-    ctx: &PassContext,
+    ctx: &HeadingInputs,
     comp: &Compensator,
     bias: &Vector3<f64>,
 ) -> Result<Vec<DwellSums>, CalibError> {
@@ -123,7 +137,7 @@ fn dwell_sums(
 }
 
 /// The weighted least-squares solution for (Ω_N sin ψ, Ω_N cos ψ, b).
-fn solve(ctx: &PassContext, c_level: &Matrix3<f64>, sums: &[DwellSums]) -> RunHeading {
+fn solve(ctx: &HeadingInputs, c_level: &Matrix3<f64>, sums: &[DwellSums]) -> RunHeading {
     let omega_ie_n = ctx.run.site.omega_ie_n();
     let up = omega_ie_n.z;
     let mut normal = SMatrix::<f64, 5, 5>::zeros();

@@ -13,7 +13,7 @@ use super::effect_sensitivity::{
     effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
 };
 use super::error::CalibError;
-use super::heading::{run_heading, RunHeading};
+use super::heading::{run_heading, HeadingInputs, RunHeading};
 use super::options::EstimateOptions;
 use super::prescan::{first_dwell, Prescan};
 use super::run::{RecordSource, RunInfo};
@@ -69,6 +69,17 @@ impl PassContext<'_> {
             scale: self.opts.prior_scale,
             grade: self.grade,
             start_heading_sigma: self.start_heading.map(|h| h.sigma_rad.min(0.1)),
+        }
+    }
+
+    /// What the start heading's solution reads.
+    pub(crate) fn heading_inputs(&self) -> HeadingInputs<'_> {
+        HeadingInputs {
+            source: self.source,
+            run: self.run,
+            scan: self.scan,
+            arw: self.arw,
+            cancel: self.cancel,
         }
     }
 
@@ -199,7 +210,7 @@ impl<'a> PassContext<'a> {
             return Ok(self);
         }
         let raw = ErrorParameters::zero().compensator();
-        let start_heading = Some(run_heading(&self, &raw)?);
+        let start_heading = Some(run_heading(&self.heading_inputs(), &raw)?);
         Ok(PassContext {
             start_heading,
             ..self
@@ -226,7 +237,7 @@ pub(crate) fn align_start(
     let f_b = comp.accel(&(Vector3::from(dwell1.mean_f_b) * dt), dt) / dt;
     let w_b = comp.gyro(&(Vector3::from(dwell1.mean_omega_b) * dt), dt) / dt;
     let c_coarse = if ctx.grade.earth_rate_hidden() {
-        run_heading(ctx, comp)?.turn(&align::coarse_level(&f_b)?)
+        run_heading(&ctx.heading_inputs(), comp)?.turn(&align::coarse_level(&f_b)?)
     } else {
         align::coarse(&f_b, &w_b)?
     };
