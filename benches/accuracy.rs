@@ -295,7 +295,7 @@ impl Tally {
             worst_ratio: 0.0,
         };
         for (i, p) in PARAMETERS.iter().enumerate() {
-            let g = Group::ALL.iter().position(|g| *g == p.group).unwrap();
+            let g = p.group.index();
             let e = &run.res.parameters[p.name];
             let err = e.value - run.cfg.params.canonical(i);
             score.z2[g] += (err / e.sigma).powi(2);

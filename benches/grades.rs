@@ -98,31 +98,15 @@ fn sim_config(grade: Grade, seed: u64, flags: &Flags) -> SimConfig {
 
 /// err/σ of every parameter, a bias against its run mean.
 fn z_scores(cfg: &SimConfig, res: &CalibrationResult, mean: Option<&BiasMean>) -> Vec<f64> {
-    let g = Group::GyroBias.first();
-    let a = Group::AccelBias.first();
     PARAMETERS
         .iter()
         .enumerate()
         .map(|(i, info)| {
-            let mut truth = cfg.params.canonical(i);
-            if let Some(m) = mean {
-                if (g..g + 3).contains(&i) {
-                    truth += m.gyro[i - g];
-                } else if (a..a + 3).contains(&i) {
-                    truth += m.accel[i - a];
-                }
-            }
+            let truth = cfg.params.canonical(i) + mean.map_or(0.0, |m| m.of_parameter(i));
             let p = &res.parameters[info.name];
             (p.value - truth) / p.sigma
         })
         .collect()
-}
-
-fn family(group: Group) -> usize {
-    Group::ALL
-        .iter()
-        .position(|g| *g == group)
-        .expect("a family")
 }
 
 /// The sums and extremes over one grade's seeds.
@@ -140,7 +124,7 @@ struct Tally {
 impl Tally {
     fn add(&mut self, z: &[f64]) {
         for (info, z) in PARAMETERS.iter().zip(z) {
-            let k = family(info.group);
+            let k = info.group.index();
             self.z2[k] += z * z;
             self.count[k] += 1;
             self.worst[k] = self.worst[k].max(z.abs());

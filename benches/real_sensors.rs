@@ -166,14 +166,6 @@ fn density_of(n: &Noise) -> NoiseDensity {
     }
 }
 
-/// The index of `group` in `Group::ALL`.
-fn family(group: Group) -> usize {
-    Group::ALL
-        .iter()
-        .position(|g| *g == group)
-        .expect("a family")
-}
-
 /// Every accelerometer `arm` off the reference point along its own axis.
 fn lever_arm_effects(arm: Option<f64>) -> Effects {
     match arm {
@@ -245,17 +237,7 @@ fn estimate_options(flags: &Flags, noise: &Noise) -> EstimateOptions {
 /// The truth of parameter `i` that a run can see: a bias's truth plus its
 /// wander's mean over the run.
 fn truth_over_run(cfg: &SimConfig, i: usize, mean: Option<&BiasMean>) -> f64 {
-    let mut truth = cfg.params.canonical(i);
-    if let Some(m) = mean {
-        let g = Group::GyroBias.first();
-        let a = Group::AccelBias.first();
-        if (g..g + 3).contains(&i) {
-            truth += m.gyro[i - g];
-        } else if (a..a + 3).contains(&i) {
-            truth += m.accel[i - a];
-        }
-    }
-    truth
+    cfg.params.canonical(i) + mean.map_or(0.0, |m| m.of_parameter(i))
 }
 
 /// One parameter's score in one run.
@@ -278,7 +260,7 @@ fn scores(cfg: &SimConfig, res: &CalibrationResult, mean: Option<&BiasMean>) -> 
             let p = &res.parameters[info.name];
             Score {
                 name: info.name,
-                family: family(info.group),
+                family: info.group.index(),
                 z: (p.value - truth) / p.sigma,
                 table1: (p.value - truth).abs() / paper_accuracy(info.group),
             }
@@ -305,7 +287,7 @@ fn unquantized(
         sigma_ratio = sigma_ratio.max(ratio);
         // Without wander the truth is the parameter itself.
         let err = (r.parameters[info.name].value - cfg.params.canonical(i)).abs();
-        let fam = family(info.group);
+        let fam = info.group.index();
         worst[fam] = worst[fam].max(err / paper_accuracy(info.group));
     }
     Some((sigma_ratio, worst))

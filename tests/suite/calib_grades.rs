@@ -10,7 +10,7 @@
 
 use sinscal_core::calib::sources::calibrate_in_memory;
 use sinscal_core::calib::EstimateOptions;
-use sinscal_core::model::{Grade, Group, PARAMETERS};
+use sinscal_core::model::{Grade, PARAMETERS};
 use sinscal_core::sim::grade_runs::{hand_run, StartHeading};
 use sinscal_core::sim::simulate;
 
@@ -25,16 +25,11 @@ fn z_scores(grade: Grade, seed: u64) -> (Option<Grade>, bool, Vec<(&'static str,
         ..EstimateOptions::default()
     };
     let res = calibrate_in_memory(&cfg, &opts).unwrap();
-    let (g, a) = (Group::GyroBias.first(), Group::AccelBias.first());
     let z = PARAMETERS
         .iter()
         .enumerate()
         .map(|(i, info)| {
-            let wander = match i {
-                _ if (g..g + 3).contains(&i) => mean.gyro[i - g],
-                _ if (a..a + 3).contains(&i) => mean.accel[i - a],
-                _ => 0.0,
-            };
+            let wander = mean.of_parameter(i);
             let p = &res.parameters[info.name];
             (
                 info.name,

@@ -10,7 +10,7 @@
 use sinscal_core::calib::result::NoiseSource;
 use sinscal_core::calib::sources::calibrate_in_memory;
 use sinscal_core::calib::{CalibrationResult, EstimateOptions, NoiseDensity};
-use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
+use sinscal_core::model::{Effects, ErrorParameters, PARAMETERS};
 use sinscal_core::nav::Site;
 use sinscal_core::sim::{simulate, Noise, Scheme, SimConfig, Vibration};
 
@@ -63,15 +63,7 @@ fn z_scores(cfg: &SimConfig, res: &CalibrationResult) -> Vec<f64> {
         .iter()
         .enumerate()
         .map(|(i, info)| {
-            let mut truth = cfg.params.canonical(i);
-            if let Some(m) = &mean {
-                let (g, a) = (Group::GyroBias.first(), Group::AccelBias.first());
-                if (g..g + 3).contains(&i) {
-                    truth += m.gyro[i - g];
-                } else if (a..a + 3).contains(&i) {
-                    truth += m.accel[i - a];
-                }
-            }
+            let truth = cfg.params.canonical(i) + mean.map_or(0.0, |m| m.of_parameter(i));
             let p = &res.parameters[info.name];
             (p.value - truth) / p.sigma
         })

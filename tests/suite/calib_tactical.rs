@@ -80,7 +80,7 @@ fn sigma_is_honest_at_tactical_grade_over_twenty_seeds() {
     let mut count = [0usize; Group::ALL.len()];
     for z in &runs {
         for (p, z) in PARAMETERS.iter().zip(z) {
-            let g = Group::ALL.iter().position(|g| *g == p.group).unwrap();
+            let g = p.group.index();
             sum_sq[g] += z * z;
             count[g] += 1;
         }

@@ -23,6 +23,14 @@ pub enum Group {
 }
 
 impl Group {
+    /// The family's place in [`Group::ALL`].
+    pub fn index(self) -> usize {
+        Group::ALL
+            .iter()
+            .position(|g| *g == self)
+            .expect("every family is in Group::ALL")
+    }
+
     /// Index of the family's first parameter in the canonical order.
     pub const fn first(self) -> usize {
         match self {

@@ -53,6 +53,7 @@ use serde::{Deserialize, Serialize};
 
 use super::sensor_noise::Noise;
 use crate::model::units::{DEG_PER_H, UG};
+use crate::model::Group;
 
 /// The shortest correlation time, s.
 pub const SHORTEST_S: f64 = 0.1;
@@ -117,6 +118,20 @@ pub struct BiasMean {
     pub gyro: [f64; 3],
     /// µg.
     pub accel: [f64; 3],
+}
+
+impl BiasMean {
+    /// The run mean of parameter `i`'s wander (canonical order and units):
+    /// its bias's for the six biases, nothing for the others. What a run
+    /// can see of a wandering bias is its truth plus this.
+    pub fn of_parameter(&self, i: usize) -> f64 {
+        let (g, a) = (Group::GyroBias.first(), Group::AccelBias.first());
+        match i {
+            _ if (g..g + 3).contains(&i) => self.gyro[i - g],
+            _ if (a..a + 3).contains(&i) => self.accel[i - a],
+            _ => 0.0,
+        }
+    }
 }
 
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
