@@ -158,19 +158,9 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
     };
     for seed in seeds {
         let cfg = sim_config(grade, seed, flags);
-        let n = &cfg.noise;
         let opts = EstimateOptions {
             cross_check: false,
-            noise: flags.known_noise.then_some(NoiseDensity {
-                gyro_arw_deg_rt_h: n.gyro_arw_deg_rt_h,
-                accel_vrw_ug_rt_hz: n.accel_vrw_ug_rt_hz,
-                gyro_bias_instability_deg_h: n.gyro_bias_instability_deg_h,
-                accel_bias_instability_ug: n.accel_bias_instability_ug,
-                gyro_rrw_deg_h_rt_h: n.gyro_rrw_deg_h_rt_h,
-                accel_rw_ug_rt_h: n.accel_rw_ug_rt_h,
-                gyro_quantum_arcsec: n.gyro_quantum_arcsec,
-                accel_quantum_mps: n.accel_quantum_mps,
-            }),
+            noise: flags.known_noise.then(|| NoiseDensity::from(&cfg.noise)),
             ..EstimateOptions::default()
         };
         let mut sim = simulate(&cfg).expect("valid");

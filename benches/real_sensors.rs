@@ -152,20 +152,6 @@ fn real_noise(seed: u64, pulses_only: bool, white: bool) -> Noise {
     n
 }
 
-/// The noise model a filter given the truth would assume.
-fn density_of(n: &Noise) -> NoiseDensity {
-    NoiseDensity {
-        gyro_arw_deg_rt_h: n.gyro_arw_deg_rt_h,
-        accel_vrw_ug_rt_hz: n.accel_vrw_ug_rt_hz,
-        gyro_bias_instability_deg_h: n.gyro_bias_instability_deg_h,
-        accel_bias_instability_ug: n.accel_bias_instability_ug,
-        gyro_rrw_deg_h_rt_h: n.gyro_rrw_deg_h_rt_h,
-        accel_rw_ug_rt_h: n.accel_rw_ug_rt_h,
-        gyro_quantum_arcsec: n.gyro_quantum_arcsec,
-        accel_quantum_mps: n.accel_quantum_mps,
-    }
-}
-
 /// Every accelerometer `arm` off the reference point along its own axis.
 fn lever_arm_effects(arm: Option<f64>) -> Effects {
     match arm {
@@ -224,7 +210,7 @@ fn estimate_options(flags: &Flags, noise: &Noise) -> EstimateOptions {
         opts.fit_noise = false;
     }
     if flags.known_noise {
-        opts.noise = Some(density_of(noise));
+        opts.noise = Some(NoiseDensity::from(noise));
     } else if flags.white_model {
         opts.noise = Some(NoiseDensity::white(
             noise.gyro_arw_deg_rt_h,
@@ -300,7 +286,7 @@ fn plan_ratio(cfg: &SimConfig, res: &CalibrationResult) -> [f64; 2] {
         scheme: cfg.scheme.clone(),
         site: cfg.site,
         sample_rate_hz: cfg.sample_rate_hz,
-        noise: density_of(&cfg.noise),
+        noise: NoiseDensity::from(&cfg.noise),
         initial_attitude_error_deg: cfg.initial_attitude_error_deg,
     };
     let predicted = plan(&input, &EstimateOptions::default()).expect("a plan");

@@ -222,14 +222,9 @@ fn a_wandering_units_jittered_stamps_and_gap_at_rest_calibrate_as_its_even_run()
     });
     let opts = EstimateOptions {
         noise: Some(NoiseDensity {
-            gyro_arw_deg_rt_h: noise.gyro_arw_deg_rt_h,
-            accel_vrw_ug_rt_hz: noise.accel_vrw_ug_rt_hz,
-            gyro_bias_instability_deg_h: noise.gyro_bias_instability_deg_h,
-            accel_bias_instability_ug: noise.accel_bias_instability_ug,
-            gyro_rrw_deg_h_rt_h: noise.gyro_rrw_deg_h_rt_h,
-            accel_rw_ug_rt_h: noise.accel_rw_ug_rt_h,
             gyro_quantum_arcsec: 0.0,
             accel_quantum_mps: 0.0,
+            ..NoiseDensity::from(&noise)
         }),
         ..EstimateOptions::default()
     };

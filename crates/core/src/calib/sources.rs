@@ -9,8 +9,9 @@ use super::options::EstimateOptions;
 use super::result::CalibrationResult;
 use super::run::{RecordSource, RunInfo};
 use super::temperature::TemperatureCurve;
+use crate::estimation::NoiseDensity;
 use crate::record::Record;
-use crate::sim::{simulate, SimConfig};
+use crate::sim::{simulate, Noise, SimConfig};
 
 /// A simulated run, generated afresh (and identically) for every pass.
 pub struct SimSource(pub SimConfig);
@@ -93,5 +94,22 @@ impl RecordSource for SliceSource<'_> {
         &self,
     ) -> Result<Box<dyn Iterator<Item = Result<Record, CalibError>> + '_>, CalibError> {
         Ok(Box::new(self.0.iter().copied().map(Ok)))
+    }
+}
+
+/// The noise model of a simulated unit, as a filter told the truth would
+/// assume it (`--known-noise` in the benchmarks).
+impl From<&Noise> for NoiseDensity {
+    fn from(n: &Noise) -> Self {
+        NoiseDensity {
+            gyro_arw_deg_rt_h: n.gyro_arw_deg_rt_h,
+            accel_vrw_ug_rt_hz: n.accel_vrw_ug_rt_hz,
+            gyro_bias_instability_deg_h: n.gyro_bias_instability_deg_h,
+            accel_bias_instability_ug: n.accel_bias_instability_ug,
+            gyro_rrw_deg_h_rt_h: n.gyro_rrw_deg_h_rt_h,
+            accel_rw_ug_rt_h: n.accel_rw_ug_rt_h,
+            gyro_quantum_arcsec: n.gyro_quantum_arcsec,
+            accel_quantum_mps: n.accel_quantum_mps,
+        }
     }
 }
