@@ -97,6 +97,62 @@ fn thin_minor(t: &mut Ticks, axis: &Axis) {
     }
 }
 
+/// The legend: every series, then every band (one drawn off scale says
+/// so in its name).
+fn legend_of<'a>(chart: &'a Chart, off_scale: &[bool], width: f64) -> Legend<'a> {
+    let series = chart.series.iter().enumerate().map(|(i, s)| Item {
+        name: Cow::Borrowed(s.name.as_str()),
+        colour: chart.series_colour(i),
+        swatch: Swatch::Series(s.style),
+    });
+    let bands = chart.bands.iter().enumerate().map(|(i, b)| {
+        let (name, swatch) = if off_scale[i] {
+            let name = format!("{} (off scale)", b.name);
+            (Cow::Owned(name), Swatch::BandOffScale)
+        } else {
+            (Cow::Borrowed(b.name.as_str()), Swatch::Band)
+        };
+        Item {
+            name,
+            colour: chart.band_colour(i),
+            swatch,
+        }
+    });
+    Legend::layout(series.chain(bands).collect(), width - 2.0 * MARGIN)
+}
+
+/// The x axis from `left` to the chart's right margin, with fewer ticks
+/// until their labels stand apart; the right end leaves room for half the
+/// last label.
+fn x_axis_fitted(xs: Scale, time: bool, xe: Extent, left: f64, width: f64) -> (Axis, Ticks) {
+    let right = width - MARGIN - 12.0;
+    let guess = if time { 72.0 } else { 36.0 };
+    let mut target = ((right - left) / (guess + 2.0 * LABEL_ROOM)).clamp(2.0, 10.0) as usize;
+    let mut x = Axis {
+        scale: xs,
+        lo: xe.lo,
+        hi: xe.hi,
+        px_lo: left,
+        px_hi: right,
+    };
+    let mut x_ticks = ticks(xs, time, xe, target);
+    while target > 2 {
+        let need = longest_label(&x_ticks) + LABEL_ROOM;
+        let crowded = x_ticks
+            .major
+            .windows(2)
+            .any(|w| x.at(w[1].at) - x.at(w[0].at) < need);
+        if !crowded {
+            break;
+        }
+        target -= 1;
+        x_ticks = ticks(xs, time, xe, target);
+    }
+    x.px_hi = width - MARGIN.max(longest_label(&x_ticks) / 2.0 + 2.0);
+    thin_minor(&mut x_ticks, &x);
+    (x, x_ticks)
+}
+
 impl<'a> Layout<'a> {
     pub fn of(chart: &'a Chart) -> Layout<'a> {
         let width = sane(chart.width, Chart::DEFAULT_WIDTH, 160.0);
@@ -108,25 +164,7 @@ impl<'a> Layout<'a> {
             .as_ref()
             .map_or_else(|| vec![false; chart.bands.len()], |r| r.off_scale.clone());
 
-        let series = chart.series.iter().enumerate().map(|(i, s)| Item {
-            name: Cow::Borrowed(s.name.as_str()),
-            colour: chart.series_colour(i),
-            swatch: Swatch::Series(s.style),
-        });
-        let bands = chart.bands.iter().enumerate().map(|(i, b)| {
-            let (name, swatch) = if off_scale[i] {
-                let name = format!("{} (off scale)", b.name);
-                (Cow::Owned(name), Swatch::BandOffScale)
-            } else {
-                (Cow::Borrowed(b.name.as_str()), Swatch::Band)
-            };
-            Item {
-                name,
-                colour: chart.band_colour(i),
-                swatch,
-            }
-        });
-        let legend = Legend::layout(series.chain(bands).collect(), width - 2.0 * MARGIN);
+        let legend = legend_of(chart, &off_scale, width);
 
         let top = MARGIN
             + 6.0
@@ -184,33 +222,8 @@ impl<'a> Layout<'a> {
         };
         thin_minor(&mut y_ticks, &y);
 
-        // Fewer x ticks until their labels stand apart.
-        let mut right = width - MARGIN - 12.0;
-        let guess = if time { 72.0 } else { 36.0 };
-        let mut target = ((right - left) / (guess + 2.0 * LABEL_ROOM)).clamp(2.0, 10.0) as usize;
-        let mut x = Axis {
-            scale: xs,
-            lo: xe.lo,
-            hi: xe.hi,
-            px_lo: left,
-            px_hi: right,
-        };
-        let mut x_ticks = ticks(xs, time, xe, target);
-        while target > 2 {
-            let need = longest_label(&x_ticks) + LABEL_ROOM;
-            let crowded = x_ticks
-                .major
-                .windows(2)
-                .any(|w| x.at(w[1].at) - x.at(w[0].at) < need);
-            if !crowded {
-                break;
-            }
-            target -= 1;
-            x_ticks = ticks(xs, time, xe, target);
-        }
-        right = width - MARGIN.max(longest_label(&x_ticks) / 2.0 + 2.0);
-        x.px_hi = right;
-        thin_minor(&mut x_ticks, &x);
+        let (x, x_ticks) = x_axis_fitted(xs, time, xe, left, width);
+        let right = x.px_hi;
 
         Layout {
             width,
