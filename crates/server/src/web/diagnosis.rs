@@ -14,7 +14,7 @@ use super::run::readable_run;
 use crate::api::auth::roles;
 use crate::api::error::ApiError;
 use crate::api::AppState;
-use crate::plot::{Band, Chart, Point, Series, Style};
+use crate::plot::{Band, Chart, Point, Series, Style, YRange};
 use sinscal_core::diagnose::{DiagnoseReport, DiagnoseStep};
 
 pub async fn page(
@@ -38,7 +38,7 @@ pub async fn page(
             tr { th { "Noise floor" } td.num { (format::sig(report.noise_floor_rms * 1e3, 3)) } td {} td {} }
         }
         @if !report.named.is_empty() {
-            p #adopt {
+            div #adopt {
                 (layout::action_button(&session, &format!("/runs/{}/adopt", run.id), "Recalibrate with it", ""))
                 " Calibrates the run again with " (report.named.join(", ")) " as states of the filter; the current result is kept as an earlier one."
             }
@@ -110,23 +110,67 @@ fn gap_charts(report: &DiagnoseReport) -> String {
         ("Gap with the base model", &g.before),
         ("Gap with the named effects", &g.after),
     ] {
-        let mut chart = Chart::new(title, "time (s)", "velocity gap (mm/s)");
-        chart.width = 900.0;
-        chart.height = 280.0;
-        chart
-            .bands
-            .push(Band::new("± noise floor", -floor_mm_s, floor_mm_s));
-        for (axis, name) in ["east", "north", "up"].iter().enumerate() {
-            let points =
-                g.t.iter()
-                    .zip(values.iter())
-                    .map(|(&t, v)| Point::new(t, v[axis] * 1e3))
-                    .collect();
-            chart.series.push(Series::new(*name, Style::Line, points));
-        }
         svg.push_str("<figure>");
-        chart.write_svg(&mut svg);
+        gap_chart(title, &g.t, values, floor_mm_s).write_svg(&mut svg);
         svg.push_str("</figure>");
     }
     svg
+}
+
+/// One gap chart, scaled to the gap itself: a noise floor far wider than
+/// the gap left after the named effects must not flatten it into a line.
+fn gap_chart(title: &str, t_s: &[f64], gap_enu_mps: &[[f64; 3]], floor_mm_s: f64) -> Chart {
+    let mut chart = Chart::new(title, "time (s)", "velocity gap (mm/s)");
+    chart.width = 900.0;
+    chart.height = 280.0;
+    chart.y_range = YRange::Data;
+    chart
+        .bands
+        .push(Band::new("± noise floor", -floor_mm_s, floor_mm_s));
+    for (axis, name) in ["east", "north", "up"].iter().enumerate() {
+        let points = t_s
+            .iter()
+            .zip(gap_enu_mps)
+            .map(|(&t, v)| Point::new(t, v[axis] * 1e3))
+            .collect();
+        chart.series.push(Series::new(*name, Style::Line, points));
+    }
+    chart
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A gap of ±0.02 mm/s behind a noise floor of 1 mm/s.
+    fn small_gap() -> (Vec<f64>, Vec<[f64; 3]>) {
+        let t: Vec<f64> = (0..50).map(|k| k as f64 * 10.0).collect();
+        let gap = t
+            .iter()
+            .map(|&t| {
+                let v = 2e-5 * (t / 40.0).sin();
+                [v, -v, 0.5 * v]
+            })
+            .collect();
+        (t, gap)
+    }
+
+    #[test]
+    fn a_gap_far_below_its_noise_floor_keeps_a_third_of_the_axis() {
+        let (t, gap) = small_gap();
+        let chart = gap_chart("after", &t, &gap, 1.0);
+        let (lo, hi) = chart.shown_y_range().unwrap();
+        let (min, max) = (-0.02, 0.02);
+        assert!(lo <= min && hi >= max, "axis {lo} … {hi}");
+        assert!(max - min >= (hi - lo) / 3.0, "axis {lo} … {hi}");
+    }
+
+    #[test]
+    fn a_gap_near_its_noise_floor_shows_the_floor() {
+        let (t, gap) = small_gap();
+        let chart = gap_chart("after", &t, &gap, 0.03);
+        let (lo, hi) = chart.shown_y_range().unwrap();
+        assert!(lo <= -0.03 && hi >= 0.03, "axis {lo} … {hi}");
+        assert!(0.04 >= (hi - lo) / 3.0, "axis {lo} … {hi}");
+    }
 }
