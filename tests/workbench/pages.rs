@@ -563,6 +563,18 @@ async fn the_admin_form_sets_a_product_types_model() {
     let admin = s.get("/admin").await.text().await.unwrap();
     let products = &admin[admin.find("id=\"products\"").unwrap()..];
     assert!(products.contains("base-24+gyro_scale_asymmetry"), "{admin}");
+    // "Change" opens the form on the product's current values, model too.
+    assert!(
+        products.contains("href=\"/admin?edit=LINE-M#product\""),
+        "{admin}"
+    );
+    let edit = s.get("/admin?edit=LINE-M").await.text().await.unwrap();
+    let form = &edit[edit.find("id=\"product\"").unwrap()..];
+    assert!(form.contains("value=\"LINE-M\""), "{form}");
+    assert!(
+        form.contains("value=\"base-24+gyro_scale_asymmetry\""),
+        "{form}"
+    );
     // Saved again with the model left empty: the server's.
     let r = save("").await;
     assert_eq!(r.status(), StatusCode::SEE_OTHER);

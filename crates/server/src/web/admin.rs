@@ -3,7 +3,7 @@
 //! API's own action functions. A new token's
 //! secret is shown once, in the answer to the form that made it.
 
-use axum::extract::{Path, State};
+use axum::extract::{Path, Query, State};
 use axum::response::{Html, Response};
 use axum::Form;
 use maud::{html, Markup};
@@ -31,9 +31,14 @@ async fn render(
     st: &AppState,
     session: &PageCaller<roles::Admin>,
     issued: Option<&NewTokenView>,
+    editing: Option<&str>,
 ) -> Result<Html<String>, PageError> {
     let tokens = st.store.list_tokens().await?;
     let products = st.store.list_product_types().await?;
+    // The form starts from the product being changed, so a change to its
+    // limits does not silently drop its model (or the other way round).
+    let edited = editing.and_then(|name| products.iter().find(|p| p.name == name));
+    let limits_text = edited.map_or_else(|| LIMITS_EXAMPLE.to_string(), |p| pretty_json(&p.limits));
     let body = html! {
         h1 { "Admin" }
         @if let Some(t) = issued { (issued_notice(t)) }
@@ -72,23 +77,24 @@ async fn render(
                     td { @if let Some(m) = &p.model { code { (m) } } @else { span.muted { "the server's" } } }
                     td.num { (p.revision) } td { (format::time(p.updated_at)) }
                     td { details { summary { "JSON" } pre { (p.limits) } } }
-                    td { (action_button(session, &format!("/admin/products/{}/delete", p.name), "Delete", "danger")) }
+                    td { a.edit href={ "/admin?edit=" (p.name) "#product" } { "Change" } " "
+                         (action_button(session, &format!("/admin/products/{}/delete", p.name), "Delete", "danger")) }
                 }
             }
         }
-        h3 { "Create or change a product type" }
+        h3 { @if let Some(p) = edited { "Change product type " (p.name) } @else { "Create or change a product type" } }
         p.muted { "Limits per canonical parameter, in its unit (SPEC §2): " code { "max_abs_value" } ", " code { "max_sigma" } ", " code { "max_repeatability" } ". Saving a name that exists makes its next revision; the verdicts it touches are judged again." }
         p.muted { "The model is the error model the line's runs are calibrated with from their next calibration job: " code { "base" } " or " code { "base" } " followed by " code { "+" } " and an effect for each effect the line shows (" (effect_names()) "). Empty: the server's model." }
         form.stack #product method="post" action="/admin/products" {
             input type="hidden" name="csrf" value=(session.csrf());
             label for="name" { "Name" }
-            input #name type="text" name="name" required maxlength="64";
+            input #name type="text" name="name" required maxlength="64" value=[edited.map(|p| &p.name)];
             label for="description" { "Description" }
-            input #description type="text" name="description" maxlength="500";
+            input #description type="text" name="description" maxlength="500" value=[edited.and_then(|p| p.description.as_ref())];
             label for="limits" { "Limits (JSON)" }
-            textarea #limits name="limits" required { (LIMITS_EXAMPLE) }
+            textarea #limits name="limits" required { (limits_text) }
             label for="model" { "Model" }
-            input #model type="text" name="model" maxlength="200" placeholder="base+accel_delay";
+            input #model type="text" name="model" maxlength="200" placeholder="base+accel_delay" value=[edited.and_then(|p| p.model.as_ref())];
             button.primary type="submit" { "Save" }
         }
     };
@@ -111,11 +117,26 @@ fn issued_notice(t: &NewTokenView) -> Markup {
     }
 }
 
+/// `?edit=<product type>` opens the form on that product's current values.
+#[derive(Deserialize)]
+pub struct AdminQuery {
+    edit: Option<String>,
+}
+
 pub async fn page(
     State(st): State<AppState>,
     session: PageCaller<roles::Admin>,
+    Query(q): Query<AdminQuery>,
 ) -> Result<Html<String>, PageError> {
-    render(&st, &session, None).await
+    render(&st, &session, None, q.edit.as_deref()).await
+}
+
+/// Stored limits as the form shows them: indented JSON, or the text as
+/// stored should it not parse.
+fn pretty_json(text: &str) -> String {
+    serde_json::from_str::<serde_json::Value>(text)
+        .and_then(|v| serde_json::to_string_pretty(&v))
+        .unwrap_or_else(|_| text.to_string())
 }
 
 #[derive(Deserialize)]
@@ -142,7 +163,7 @@ pub async fn create_token(
         },
     )
     .await?;
-    render(&st, &session, Some(&issued)).await
+    render(&st, &session, Some(&issued), None).await
 }
 
 pub async fn revoke_token(
