@@ -2,97 +2,19 @@
 //! unit: a run uploaded through the form and followed live to its result,
 //! the run page's 24 rows and convergence plots, a unit's trends and
 //! repeatability after three runs, a soaked unit's thermal model, the
-//! diagnosis, noise, certificate and admin pages, and a station kept out
-//! of admin. No page logs a console error. Screenshots of every page go to
-//! `target/screenshots/`.
-
-use std::time::Duration;
+//! noise, certificate and admin pages, and a station kept out of admin
+//! (the diagnosis page is walked in `loop_in_chromium`). No page logs a
+//! console error. Screenshots of every page go to `target/screenshots/`.
 
 use crate::common::browser::{screenshot_path, Browser};
-use crate::common::{short_run, spawn_app, SimRun, TestApp};
+use crate::common::{short_run, spawn_app, SimRun};
+use crate::steps::{
+    printed_pages, product_type, run_queued_jobs, shoot, sign_in, visit, with_product, CALIBRATION,
+    LOAD,
+};
 use reqwest::StatusCode;
 use serde_json::json;
 use sinscal_core::io::data::DataFormat;
-
-const LOAD: Duration = Duration::from_secs(10);
-const CALIBRATION: Duration = Duration::from_secs(240);
-
-/// Writes `run`'s metadata next to its data, with `product` named, for the
-/// upload form's file inputs.
-fn with_product(run: &SimRun, product: &str) -> (std::path::PathBuf, Vec<u8>) {
-    let mut meta: serde_json::Value = serde_json::from_slice(&run.metadata).unwrap();
-    meta["product"] = json!(product);
-    let bytes = serde_json::to_vec(&meta).unwrap();
-    let path = run.data.with_file_name("run-with-product.json");
-    std::fs::write(&path, &bytes).unwrap();
-    (path, bytes)
-}
-
-async fn product_type(app: &TestApp, name: &str, limits: serde_json::Value) {
-    let r = app
-        .http
-        .post(app.url("/product-types"))
-        .bearer_auth(&app.admin)
-        .json(&json!({"name": name, "limits": limits}))
-        .send()
-        .await
-        .unwrap();
-    assert_eq!(r.status(), StatusCode::CREATED);
-}
-
-/// Opens `path`, checks the page logged no console error, and saves a
-/// full-page screenshot as `name`.
-async fn visit(b: &Browser, origin: &str, path: &str, name: &str) {
-    b.goto(&format!("{origin}{path}")).await;
-    b.wait_for("main", LOAD).await;
-    shoot(b, name).await;
-}
-
-async fn shoot(b: &Browser, name: &str) {
-    let errors = b.console_errors().await;
-    assert!(errors.is_empty(), "{name}: console errors {errors:?}");
-    b.full_page_screenshot(screenshot_path(&format!("workbench-{name}.png")))
-        .await;
-}
-
-/// How many pages the current page prints on (Chromium's print to PDF,
-/// with the page's own `@page` size; pdfinfo counts them).
-async fn printed_pages(b: &Browser) -> usize {
-    use base64::Engine;
-    let printed = b
-        .cdp("Page.printToPDF", json!({"preferCSSPageSize": true}))
-        .await;
-    let pdf = base64::engine::general_purpose::STANDARD
-        .decode(printed["data"].as_str().expect("printToPDF's data"))
-        .unwrap();
-    let path = screenshot_path("workbench-certificate-print.pdf");
-    std::fs::write(&path, pdf).unwrap();
-    let info = std::process::Command::new("pdfinfo")
-        .arg(&path)
-        .output()
-        .expect("pdfinfo (poppler-utils; scripts/test installs it)");
-    let info = String::from_utf8_lossy(&info.stdout).into_owned();
-    info.lines()
-        .find_map(|l| l.strip_prefix("Pages:"))
-        .and_then(|n| n.trim().parse().ok())
-        .unwrap_or_else(|| panic!("pdfinfo: {info}"))
-}
-
-async fn sign_in(b: &Browser, origin: &str, token: &str) {
-    b.goto(&format!("{origin}/")).await;
-    b.wait_for("input#token", LOAD).await.send_keys(token).await;
-    b.find("form[action='/signin'] button").await.click().await;
-    b.wait_for("nav.top", LOAD).await;
-}
-
-/// Runs every queued job, one after the other (the server has no worker
-/// of its own here, so that a page can be seen before its job runs).
-async fn run_queued_jobs(app: &TestApp) {
-    while !matches!(
-        app.runner.try_run_next_job(0).await.unwrap(),
-        sinscal_server::jobs::Outcome::Empty
-    ) {}
-}
 
 #[tokio::test]
 async fn the_workbench_in_chromium() {
@@ -248,45 +170,6 @@ async fn the_workbench_in_chromium() {
         6
     );
     assert_eq!(b.find_all("table#gyro-noise tr").await.len(), 4);
-
-    // Diagnose from the run page's button and follow it.
-    visit(
-        &b,
-        &origin,
-        &format!("/runs/{run_id}"),
-        "run-before-diagnosis",
-    )
-    .await;
-    b.find(&format!("form[action='/runs/{run_id}/diagnose'] button"))
-        .await
-        .click()
-        .await;
-    b.wait_for_text("section#progress", "diagnosis", LOAD).await;
-    let diagnosis = tokio::spawn({
-        let runner = app.runner.clone();
-        async move { runner.try_run_next_job(0).await.unwrap() }
-    });
-    b.wait_for_text(
-        &format!("a[href='/runs/{run_id}/diagnosis']"),
-        "succeeded",
-        CALIBRATION,
-    )
-    .await;
-    diagnosis.await.unwrap();
-    visit(
-        &b,
-        &origin,
-        &format!("/runs/{run_id}/diagnosis"),
-        "diagnosis",
-    )
-    .await;
-    assert!(b
-        .find("#diagnosis-verdict")
-        .await
-        .text()
-        .await
-        .contains("Verdict"));
-    assert!(!b.find_all("#gap-plot svg").await.is_empty());
 
     // A rejected unit shows what failed.
     let rdir = dir.path().join("b");

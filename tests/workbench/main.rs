@@ -1,8 +1,9 @@
 //! The workbench (the pages at the server's root), one test binary: the
 //! pages over HTTP as a browser without JavaScript uses them (`pages`),
-//! the same pages in a real headless Chromium (`in_chromium`), and the
-//! WebDriver client those drive Chromium with, against a page server of
-//! its own (`browser_client`).
+//! the same pages in a real headless Chromium (`in_chromium`), the
+//! discrepancy loop closed from the pages (`loop_in_chromium`), the steps
+//! those walks share (`steps`), and the WebDriver client they drive
+//! Chromium with, against a page server of its own (`browser_client`).
 
 #[path = "../suite/common/mod.rs"]
 mod common;
@@ -11,4 +12,6 @@ mod thermal_support;
 
 mod browser_client;
 mod in_chromium;
+mod loop_in_chromium;
 mod pages;
+mod steps;

@@ -664,6 +664,14 @@ impl Element {
         }
     }
 
+    /// Every element under this one matching `css`, in document order.
+    pub async fn find_all(&self, css: &str) -> Vec<Element> {
+        match self.driver.find_all(Some(&self.id), css).await {
+            Ok(v) => v,
+            Err(e) => panic!("find all `{css}` inside `{}`: {e}", self.css),
+        }
+    }
+
     /// The first element under this one matching `css`.
     pub async fn find(&self, css: &str) -> Element {
         match self.driver.find_all(Some(&self.id), css).await {

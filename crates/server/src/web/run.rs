@@ -339,7 +339,7 @@ fn checks(r: &CalibrationResult) -> Markup {
         h2 { "Model check" }
         @match &r.model_check {
             Some(c) => {
-                p { @if c.adequate { span.pass { "adequate" } } @else { span.fail { "inadequate" } } " — " (c.summary) }
+                p #model-check { @if c.adequate { span.pass { "adequate" } } @else { span.fail { "inadequate" } } " — " (c.summary) }
                 p.muted { "χ² = " (format::sig(c.statistic, 4)) " against " (format::sig(c.threshold, 4)) " (" (c.dof) " scores); largest |z| " (format::sig(c.largest_z, 3)) " against " (format::sig(c.largest_z_threshold, 3)) "." }
                 @if !c.findings.is_empty() {
                     table #findings {
