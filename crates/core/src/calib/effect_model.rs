@@ -8,7 +8,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-use super::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
 use crate::model::{Group, PARAMETERS};
 

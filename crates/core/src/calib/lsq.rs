@@ -26,7 +26,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use super::effect_sensitivity::EffectTerms;
+use crate::estimation::effect_columns::EffectTerms;
 use super::error::CalibError;
 use super::kf_pass::effect_terms;
 use super::nodes::{walk_nodes, Stretch};

@@ -7,7 +7,8 @@
 pub(crate) mod check_statistics;
 mod detect_options;
 pub(crate) mod effect_model;
-pub(crate) mod effect_sensitivity;
+#[cfg(test)]
+mod effect_columns_check;
 pub(crate) mod error;
 pub(crate) mod estimate;
 pub(crate) mod gaps;

@@ -37,7 +37,7 @@ use super::result::DwellResidual;
 use super::segment::{RunSegment, SegmentKind};
 use crate::estimation::filter::Innovation;
 
-pub use super::check_statistics::quantile;
+pub use crate::estimation::quantile;
 use super::misfit::NAV_AXES;
 pub use super::misfit::{Misfit, ModelCheck, NavAxis, Shape, FALSE_ALARM_RATE};
 

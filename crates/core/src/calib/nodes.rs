@@ -6,7 +6,7 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
-use super::effect_sensitivity::EffectTerms;
+use crate::estimation::effect_columns::EffectTerms;
 use super::error::CalibError;
 use super::prescan::dwell_at;
 use super::segment::RunSegment;

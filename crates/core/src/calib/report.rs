@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use super::effect_model::Effect;
-use super::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use super::error::CalibError;
 use super::kf_pass::Pass;
 use super::result::{CrossCheck, ParameterEstimate};

@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
 
-use super::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 
 /// A coefficient with its 1-σ.

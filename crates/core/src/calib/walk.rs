@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::effect_sensitivity::{
+use crate::estimation::effect_columns::{
     effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
 };
 use super::error::CalibError;

@@ -11,7 +11,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::layout::{matrix, rows};
-use crate::calib::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::calib::thermal_states::RunThermal;
 use crate::model::thermal::{ThermalTruth, REFERENCE_C};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};

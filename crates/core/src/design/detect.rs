@@ -25,7 +25,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::information::Information;
 use super::{DesignError, DesignRequest};
-use crate::calib::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::calib::plan::PlanInput;
 use crate::calib::Effect;
 use crate::diagnose::{thresholds_before_data, DiagnoseOptions};

@@ -31,7 +31,7 @@
 //! shorter than the pre-scan's shortest dwell is not a dwell.
 //!
 //! Effect states (`design --detect`) ride along beside the 24 as in
-//! `calibrate --model`: each step's column is `calib::effect_sensitivity`'s,
+//! `calibrate --model`: each step's column is `estimation::effect_columns`'s,
 //! read from the true motion around the step (the step and two
 //! neighbours either side, as the walk reads records). At rest every
 //! effect's column is constant but the drifts', which grow linearly in
@@ -39,7 +39,7 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use crate::calib::effect_sensitivity::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
+use crate::estimation::effect_columns::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
 use crate::calib::CalibError;
 use crate::estimation::filter::{error_dynamics, SystematicFilter};
 use crate::estimation::noise_model::NoiseModel;

@@ -3,7 +3,7 @@
 //! whose column (from the run's own motion) is its signature.
 
 use crate::calib::effect_model::Effect;
-use crate::calib::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::model::effects::{BiasDrift, LeverArms};
 use crate::model::{Effects, Group, PARAMETERS};
 

@@ -12,7 +12,7 @@
 //!
 //! with B_k the base parameters' columns and E_k the effect parameters'
 //! columns, both accumulated record by record along the motion the run
-//! measured (`calib::sensitivity`, `calib::effect_sensitivity`): each
+//! measured (`calib::sensitivity`, `estimation::effect_columns`): each
 //! effect's signature is that effect applied to what actually happened,
 //! through the same compensation and navigation, so hand flips, wobbling
 //! axes and a reference point that moves between dwells need no model of
@@ -27,7 +27,7 @@ use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 use super::candidates::Candidate;
 use super::error::DiagnoseError;
 use super::gap_wander::WanderPrior;
-use crate::calib::effect_sensitivity::{EffectParameter, EffectTerms};
+use crate::estimation::effect_columns::{EffectParameter, EffectTerms};
 use crate::calib::nodes::{walk_nodes, Stretch};
 use crate::calib::walk::PassContext;
 use crate::calib::CalibError;

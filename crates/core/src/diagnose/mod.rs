@@ -8,7 +8,7 @@
 //!    the gap at nodes in the dwells (`gap`): each dwell's drift and each
 //!    turn's velocity step, with its covariance under noise alone. On the
 //!    same walk, accumulate every candidate effect's columns from the
-//!    motion the run measured (`calib::effect_sensitivity`): no model of
+//!    motion the run measured (`estimation::effect_columns`): no model of
 //!    the scheme is needed, so hand flips and tilted axes are diagnosed
 //!    like table turns. The scheme is reconstructed (`reconstruct`) only
 //!    to describe the run and pace a proposed probe turn.

@@ -9,7 +9,7 @@ use super::library::Library;
 use super::options::DiagnoseOptions;
 use super::select::Selection;
 use super::verdict::{Remainder, Verdict};
-use crate::calib::effect_sensitivity::EffectParameter;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::calib::walk::{align_start, PassContext};
 use crate::model::ErrorParameters;
 

@@ -8,6 +8,7 @@
 //! runs through it and reports.
 
 pub(crate) mod align;
+pub(crate) mod effect_columns;
 pub(crate) mod error;
 pub(crate) mod error_dynamics;
 pub(crate) mod filter;
@@ -15,6 +16,7 @@ pub(crate) mod nav_errors;
 pub(crate) mod noise_model;
 pub(crate) mod normal;
 pub(crate) mod priors;
+pub mod quantile;
 pub(crate) mod sensitivity;
 pub(crate) mod wander;
 

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fit::{fit_polynomial, PolyFit, Sample};
 use super::ThermalError;
-use crate::calib::check_statistics::quantile::{chi2_upper, normal_upper};
+use crate::estimation::quantile::{chi2_upper, normal_upper};
 use crate::calib::ParameterEstimate;
 use crate::model::{ParameterInfo, PARAMETERS};
 
