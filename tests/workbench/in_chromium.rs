@@ -250,6 +250,25 @@ async fn the_workbench_in_chromium() {
     b.wait_for("input#token", LOAD).await;
     sign_in(&b, &origin, &station).await;
     assert!(b.current_url().await.ends_with("/upload"));
+    // A data file cut off mid-line through the form: the page names the
+    // data file and the line, and offers the form again.
+    let data = std::fs::read(&runs[0].data).unwrap();
+    let broken = dir.path().join("broken.csv");
+    let mut cut = data[..data.len() / 2].to_vec();
+    cut.extend_from_slice(b"\n1.0,not-a-number\n");
+    std::fs::write(&broken, cut).unwrap();
+    b.find("input#metadata").await.upload(&meta_path).await;
+    b.find("input#data").await.upload(&broken).await;
+    b.find("form#upload button").await.click().await;
+    let refusal = b.wait_for("#refusal", LOAD).await.text().await;
+    assert!(refusal.contains("The data file was refused"), "{refusal}");
+    assert!(refusal.contains("line"), "{refusal}");
+    assert_eq!(b.find_all("form#upload").await.len(), 1);
+    // The refusal itself is the one console entry (the document's 422).
+    let errors = b.console_errors().await;
+    assert!(errors.iter().all(|e| e.contains("422")), "{errors:?}");
+    b.full_page_screenshot(screenshot_path("workbench-upload-refused.png"))
+        .await;
     assert!(b.find_all("nav.top a[href='/admin']").await.is_empty());
     b.goto(&format!("{origin}/admin")).await;
     assert!(b.wait_for("h1", LOAD).await.text().await.contains("403"));
