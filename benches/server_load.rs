@@ -175,7 +175,7 @@ async fn seed(store: &Store, units: usize, runs_per_unit: usize, prefix: &str) {
                     format: DataFormat::F64le,
                     gzip: false,
                     blob_path: format!("runs/seed/{id}.bin"),
-                    metadata: "{}".into(),
+                    metadata: String::from("{}").into(),
                 },
                 recorded_at: Some(t0 + (k as i64) * 86_400_000),
                 uploaded_at: t0,

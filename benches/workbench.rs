@@ -41,7 +41,7 @@ fn new_run(serial: &str, k: usize) -> NewRun {
             format: DataFormat::F64le,
             gzip: false,
             blob_path: format!("runs/seed/{id}.bin"),
-            metadata: "{}".into(),
+            metadata: String::from("{}").into(),
         },
         recorded_at: Some(1_700_000_000_000 + k as i64 * 86_400_000),
         uploaded_at: 1_700_000_000_000,

@@ -6,10 +6,10 @@
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::estimation::effect_columns::*;
-use crate::estimation::sensitivity::Rows;
 use super::run::RecordSource;
 use super::sources::SimSource;
+use crate::estimation::effect_columns::*;
+use crate::estimation::sensitivity::Rows;
 use crate::model::effects::{BiasDrift, LeverArms};
 use crate::model::thermal::{TemperatureHistory, ThermalTruth};
 use crate::model::{Effects, ErrorParameters};
@@ -72,9 +72,8 @@ fn check_against(
     // walker reads a run: the columns are changes to that record.
     let dt = 1.0 / cfg.sample_rate_hz;
     let comp = cfg.params.compensator();
-    let compensated = |c: &SimConfig| -> Vec<_> {
-        simulate(c).unwrap().map(|r| comp.record(&r, dt)).collect()
-    };
+    let compensated =
+        |c: &SimConfig| -> Vec<_> { simulate(c).unwrap().map(|r| comp.record(&r, dt)).collect() };
     let (with, without) = (compensated(cfg), compensated(plain));
     let curve = SimSource(cfg.clone()).temperature().unwrap();
     let trajectory = Trajectory::new(&cfg.scheme, &Matrix3::identity(), &cfg.site).unwrap();
@@ -112,9 +111,7 @@ fn check_against(
         }
         actual += c_b_n
             * match rows {
-                Rows::Attitude => {
-                    Vector3::from(with[k].dtheta) - Vector3::from(without[k].dtheta)
-                }
+                Rows::Attitude => Vector3::from(with[k].dtheta) - Vector3::from(without[k].dtheta),
                 Rows::Velocity => Vector3::from(with[k].dv) - Vector3::from(without[k].dv),
             };
         if checkpoints.last() == Some(&k) {

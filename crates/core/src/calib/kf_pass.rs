@@ -6,7 +6,6 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Vector3};
 
 use super::effect_model::ErrorModel;
-use crate::estimation::effect_columns::EffectTerms;
 use super::error::CalibError;
 use super::model_check::{CheckAccumulator, ModelCheck};
 use super::prescan::dwell_at;
@@ -14,6 +13,7 @@ use super::replay::PassTrace;
 use super::result::{Convergence, DwellResidual};
 use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
+use crate::estimation::effect_columns::EffectTerms;
 use crate::estimation::filter::{Innovation, FORGOTTEN_VELOCITY_SIGMA_MPS};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 

@@ -26,11 +26,11 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use crate::estimation::effect_columns::EffectTerms;
 use super::error::CalibError;
 use super::kf_pass::effect_terms;
 use super::nodes::{walk_nodes, Stretch};
 use super::walk::{align_start, PassContext};
+use crate::estimation::effect_columns::EffectTerms;
 use crate::estimation::filter::{error_dynamics, NAV};
 use crate::estimation::normal::NormalEquations;
 use crate::estimation::priors::{prior_sigma, start_attitude_information, white_noise_density};

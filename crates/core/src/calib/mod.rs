@@ -6,9 +6,9 @@
 
 pub(crate) mod check_statistics;
 mod detect_options;
-pub(crate) mod effect_model;
 #[cfg(test)]
 mod effect_columns_check;
+pub(crate) mod effect_model;
 pub(crate) mod error;
 pub(crate) mod estimate;
 pub(crate) mod gaps;

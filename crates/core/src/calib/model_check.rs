@@ -37,9 +37,9 @@ use super::result::DwellResidual;
 use super::segment::{RunSegment, SegmentKind};
 use crate::estimation::filter::Innovation;
 
-pub use crate::estimation::quantile;
 use super::misfit::NAV_AXES;
 pub use super::misfit::{Misfit, ModelCheck, NavAxis, Shape, FALSE_ALARM_RATE};
+pub use crate::estimation::quantile;
 
 /// Fewest zero-velocity windows in a dwell for its shapes to be tested.
 const MIN_WINDOWS: usize = 8;

@@ -6,11 +6,11 @@
 
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 
-use crate::estimation::effect_columns::EffectTerms;
 use super::error::CalibError;
 use super::prescan::dwell_at;
 use super::segment::RunSegment;
 use super::walk::{walk, PassContext, WindowEnd};
+use crate::estimation::effect_columns::EffectTerms;
 use crate::estimation::filter::{process_noise, transition};
 use crate::model::Compensator;
 

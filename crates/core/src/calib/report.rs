@@ -6,7 +6,6 @@
 use std::collections::BTreeMap;
 
 use super::effect_model::Effect;
-use crate::estimation::effect_columns::EffectParameter;
 use super::error::CalibError;
 use super::kf_pass::Pass;
 use super::result::{CrossCheck, ParameterEstimate};
@@ -14,6 +13,7 @@ use super::temperature::THERMAL_SPAN_C;
 use super::thermal_states::RunThermal;
 use super::thermal_states::{is_thermal, run_thermal};
 use super::walk::PassContext;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::estimation::priors::{prior_sigma, Priors};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 

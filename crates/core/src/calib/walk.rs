@@ -9,9 +9,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use nalgebra::{Matrix3, Vector3};
 
-use crate::estimation::effect_columns::{
-    effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
-};
 use super::error::CalibError;
 use super::heading::{run_heading, HeadingInputs, RunHeading};
 use super::options::EstimateOptions;
@@ -20,6 +17,9 @@ use super::run::{RecordSource, RunInfo};
 use super::temperature::TemperatureCurve;
 use super::timed::{timed_records, Timed, TimedRecords};
 use crate::estimation::align;
+use crate::estimation::effect_columns::{
+    effect_column, known_effect_change, EffectParameter, EffectTerms, RecordMotion, NEIGHBOURS,
+};
 use crate::estimation::filter::{error_dynamics, SystematicFilter};
 use crate::estimation::noise_model::NoiseModel;
 use crate::estimation::priors::{initial_navigation_covariance, prior_sigma, Priors};

@@ -11,8 +11,8 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use super::layout::{matrix, rows};
-use crate::estimation::effect_columns::EffectParameter;
 use crate::calib::thermal_states::RunThermal;
+use crate::estimation::effect_columns::EffectParameter;
 use crate::model::thermal::{ThermalTruth, REFERENCE_C};
 use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
 use crate::thermal::ThermalModel;

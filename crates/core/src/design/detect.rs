@@ -25,10 +25,10 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use super::information::Information;
 use super::{DesignError, DesignRequest};
-use crate::estimation::effect_columns::EffectParameter;
 use crate::calib::plan::PlanInput;
 use crate::calib::Effect;
 use crate::diagnose::{thresholds_before_data, DiagnoseOptions};
+use crate::estimation::effect_columns::EffectParameter;
 use crate::sim::Scheme;
 
 /// How far below the requested size the predicted threshold must lie.

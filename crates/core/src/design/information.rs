@@ -39,8 +39,8 @@
 
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
-use crate::estimation::effect_columns::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
 use crate::calib::CalibError;
+use crate::estimation::effect_columns::{effect_column, EffectParameter, RecordMotion, NEIGHBOURS};
 use crate::estimation::filter::{error_dynamics, SystematicFilter};
 use crate::estimation::noise_model::NoiseModel;
 use crate::estimation::priors::{initial_navigation_covariance, prior_sigma, Priors};

@@ -9,8 +9,8 @@ use super::library::Library;
 use super::options::DiagnoseOptions;
 use super::select::Selection;
 use super::verdict::{Remainder, Verdict};
-use crate::estimation::effect_columns::EffectParameter;
 use crate::calib::walk::{align_start, PassContext};
+use crate::estimation::effect_columns::EffectParameter;
 use crate::model::ErrorParameters;
 
 /// One Gauss–Newton step of the whole gap problem about the named

@@ -9,8 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use super::fit::{fit_polynomial, PolyFit, Sample};
 use super::ThermalError;
-use crate::estimation::quantile::{chi2_upper, normal_upper};
 use crate::calib::ParameterEstimate;
+use crate::estimation::quantile::{chi2_upper, normal_upper};
 use crate::model::{ParameterInfo, PARAMETERS};
 
 /// The reference temperature of SPEC §3a: p is the value at 25 °C.

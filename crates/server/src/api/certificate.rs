@@ -25,7 +25,6 @@ use crate::store::{
     now_ms, Approval, Approver, CertificateRow, JobId, ResultVersion, Role, RunId, RunRow,
 };
 use sinscal_core::calib::CalibrationResult;
-use sinscal_core::io::meta::RunMetadata;
 
 pub fn router() -> Router<AppState> {
     Router::new()
@@ -72,7 +71,7 @@ pub(crate) async fn certificate_of(st: &AppState, run: RunRow) -> Result<Certifi
         .into_iter()
         .partition(|c| c.result_seq == result_version.seq);
     Ok(Certificate {
-        meta: RunMetadata::from_json(run.file.metadata.as_bytes()).ok(),
+        meta: run.file.metadata.parse().ok(),
         run,
         result,
         result_version,

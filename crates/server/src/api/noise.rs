@@ -20,7 +20,6 @@ use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::{parse_id, AppState};
 use crate::store::RunId;
-use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::noise::{NoiseOptions, NoiseReport};
 use sinscal_core::pipeline::noise_file;
 
@@ -54,7 +53,10 @@ async fn get_noise(
 /// page's), at most `noise_analyses` at once: 503 when all are busy.
 pub(crate) async fn analyse_noise(st: &AppState, id: RunId) -> Result<NoiseReport, ApiError> {
     let run = super::runs::stored_run(st, id).await?;
-    let meta = RunMetadata::from_json(run.file.metadata.as_bytes())
+    let meta = run
+        .file
+        .metadata
+        .parse()
         .map_err(|e| ApiError::Internal(format!("stored metadata of run {id}: {e}")))?;
     let permit =
         st.noise_analyses

@@ -101,7 +101,7 @@ impl RunView {
         let verdict = r.verdict()?.map(VerdictView::from);
         Ok(RunView {
             verdict,
-            metadata: serde_json::from_str(&r.file.metadata)
+            metadata: serde_json::from_str(r.file.metadata.as_json())
                 .map_err(|e| ApiError::Internal(e.to_string()))?,
             id: r.id,
             unit_serial: r.unit_serial,

@@ -13,7 +13,7 @@ use super::error::ApiError;
 use super::AppState;
 use crate::metrics::UploadOutcome;
 use crate::runfiles::{Pending, RunFiles};
-use crate::store::{now_ms, InsertOutcome, JobId, NewRun, Role, RunFile, RunId, RunRow};
+use crate::store::{now_ms, InsertOutcome, JobId, NewRun, Role, RunFile, RunId, RunRow, Stored};
 use sinscal_core::io::data::DataFormat;
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::io::UnitSerial;
@@ -94,13 +94,17 @@ fn answer_with_location(status: StatusCode, body: UploadAnswer, run_url: &str) -
 /// another uploader's run nothing but that it exists (no ids, no
 /// metadata); bytes re-sent with different metadata are refused rather
 /// than silently answered with the old run.
-fn existing_answer(auth: &Auth, run: &RunRow, metadata: &str) -> Result<StoredRun, ApiError> {
+fn existing_answer(
+    auth: &Auth,
+    run: &RunRow,
+    metadata: &Stored<RunMetadata>,
+) -> Result<StoredRun, ApiError> {
     if auth.role == Role::Station && run.uploaded_by.as_deref() != Some(auth.token_id.as_str()) {
         return Err(ApiError::Conflict(
             "these bytes are already stored for this unit by another uploader".into(),
         ));
     }
-    if run.file.metadata != metadata {
+    if run.file.metadata.as_json() != metadata.as_json() {
         return Err(ApiError::Conflict(format!(
             "these bytes are already stored for this unit as run {} with different metadata; \
              to store them with the new metadata an admin deletes that run first \
@@ -150,7 +154,7 @@ pub(super) async fn store_run(
         .parse()
         .map_err(ApiError::InvalidMetadata)?;
     let (records, gzip) = data.checked.unwrap_or((0, false));
-    let metadata = serde_json::to_string(&meta).map_err(|e| ApiError::Internal(e.to_string()))?;
+    let metadata = Stored::of(&meta).map_err(|e| ApiError::Internal(e.to_string()))?;
     if let Some(existing) = st.store.find_run_by_hash(&serial, &data.sha256).await? {
         st.metrics.upload(UploadOutcome::Duplicate);
         return existing_answer(auth, &existing, &metadata);

@@ -212,7 +212,7 @@ impl JobRunner {
 
     async fn run_claimed(&self, claim: &Claim) -> Result<JobEnd, JobError> {
         let fence = &claim.fence;
-        let meta = match RunMetadata::from_json(claim.metadata.as_bytes()) {
+        let meta = match claim.metadata.parse() {
             Ok(m) => m,
             // Validated at upload; if it no longer parses, no retry helps.
             Err(e) => {

@@ -10,11 +10,13 @@ use sqlx::{FromRow, Row};
 
 use super::db::{now_ms, Store, WriteTx};
 use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
+use super::document::Stored;
 use super::error::StoreError;
 use super::ids::{JobId, RunId};
 use super::kinds::{Flag, JobKind, JobState};
 use super::results::{insert_result, StoredResult};
 use sinscal_core::calib::CalibrationResult;
+use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::io::UnitSerial;
 
 /// The identity of one attempt at a job. Every write a worker makes about
@@ -38,7 +40,7 @@ pub struct Claim {
     pub unit_serial: UnitSerial,
     pub run_time: i64,
     pub blob_path: String,
-    pub metadata: String,
+    pub metadata: Stored<RunMetadata>,
     /// The model a calibration job carries: the one adopted for the run,
     /// else its product type's (`None`: the server's). As stored, parsed
     /// by the worker, so that a value it refuses fails this job alone.
@@ -98,7 +100,8 @@ struct ClaimedRun {
     unit_serial: UnitSerial,
     run_time: i64,
     blob_path: String,
-    metadata: String,
+    #[sqlx(try_from = "String")]
+    metadata: Stored<RunMetadata>,
     model: Option<String>,
 }
 
@@ -394,7 +397,7 @@ mod tests {
                 format: DataFormat::Csv,
                 gzip: false,
                 blob_path: "runs/ru/run-1.csv".into(),
-                metadata: "{}".into(),
+                metadata: Stored::new("{}".into()),
             },
             recorded_at: None,
             uploaded_at: 0,

@@ -6,12 +6,14 @@ use sqlx::FromRow;
 
 use super::db::{now_ms, Store, WriteTx};
 use super::dialect::{hint_job_queued, lock_key, run_key, unit_key};
+use super::document::Stored;
 use super::error::StoreError;
 use super::ids::{JobId, RunId};
 use super::jobs::count_queued;
 use super::kinds::{Flag, JobState, OptionalFlag};
 use super::verdicts::{refresh_unit, refresh_unit_row, StoredVerdict};
 use sinscal_core::io::data::DataFormat;
+use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::io::UnitSerial;
 
 /// A run's row with its calibration job and its result's columns (`r` the
@@ -34,8 +36,9 @@ pub struct RunFile {
     #[sqlx(try_from = "Flag")]
     pub gzip: bool,
     pub blob_path: String,
-    /// The metadata JSON as uploaded.
-    pub metadata: String,
+    /// The metadata (SPEC §5), validated at upload.
+    #[sqlx(try_from = "String")]
+    pub metadata: Stored<RunMetadata>,
 }
 
 /// A stored run, with its job's id.
@@ -151,7 +154,7 @@ impl NewRun {
                 format: DataFormat::Csv,
                 gzip: false,
                 blob_path: format!("runs/x/{id}.csv"),
-                metadata: "{}".into(),
+                metadata: Stored::new("{}".into()),
             },
             recorded_at: Some(recorded_at),
             uploaded_at: 0,
@@ -350,7 +353,7 @@ pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Resul
     .bind(new.file.format.as_str())
     .bind(new.file.gzip)
     .bind(&new.file.blob_path)
-    .bind(&new.file.metadata)
+    .bind(new.file.metadata.as_json())
     .bind(new.recorded_at)
     .bind(new.recorded_at.unwrap_or(new.uploaded_at))
     .bind(new.uploaded_at)

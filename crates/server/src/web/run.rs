@@ -27,7 +27,6 @@ use crate::api::{parse_id, AppState};
 use crate::store::{JobRow, ResultVersion, RunId, RunRow, StoredVerdict};
 use sinscal_core::accept::{LimitKind, ParameterCheck, ProductLimits, Verdict, VerdictStatus};
 use sinscal_core::calib::CalibrationResult;
-use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::model::PARAMETERS;
 
 /// The run of a path's `id` if the session may read it (a station: its
@@ -88,7 +87,7 @@ pub async fn page(
     Path(id): Path<String>,
 ) -> Result<Html<String>, PageError> {
     let run = readable_run(&st, &session, id).await?;
-    let meta = RunMetadata::from_json(run.file.metadata.as_bytes()).ok();
+    let meta = run.file.metadata.parse().ok();
     let jobs = run_jobs(&st, &run).await?;
     let engineer = roles::ENGINEER.contains(&session.role());
     let result = if engineer {
