@@ -1,6 +1,7 @@
 //! The workbench (the pages at the server's root), one test binary: the
-//! pages over HTTP as a browser without JavaScript uses them (`pages`),
-//! the same pages in a real headless Chromium (`in_chromium`), and the
+//! pages over HTTP as a browser without JavaScript uses them (`pages`,
+//! `design_pages`), the same pages in a real headless Chromium
+//! (`in_chromium`, `design_in_chromium`), and the
 //! WebDriver client those drive Chromium with, against a page server of
 //! its own (`browser_client`).
 
@@ -10,5 +11,7 @@ mod common;
 mod thermal_support;
 
 mod browser_client;
+mod design_in_chromium;
+mod design_pages;
 mod in_chromium;
 mod pages;
