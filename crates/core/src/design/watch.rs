@@ -13,10 +13,13 @@ use std::sync::atomic::{AtomicBool, Ordering};
 /// few milliseconds, so a report every ~0.1–0.5 s.
 const REPORT_EVERY: usize = 50;
 
+/// What a watch reports to: the fraction done (0–1) and the stage in words.
+pub type Report<'a> = &'a dyn Fn(f64, &str);
+
 /// A design's observer. [`Watch::quiet`] reports nothing and never stops
 /// (the command line, the synchronous API).
 pub struct Watch<'a> {
-    report: Option<&'a dyn Fn(f64, &str)>,
+    report: Option<Report<'a>>,
     cancel: Option<&'a AtomicBool>,
     /// The current phase: its fraction of the whole and its name.
     phase: Cell<(f64, &'static str)>,
@@ -35,7 +38,7 @@ impl Watch<'static> {
 impl<'a> Watch<'a> {
     /// Reports to `report` (fraction 0–1, stage in words); stops with
     /// `DesignError::Cancelled` once `cancel` is set.
-    pub fn new(report: &'a dyn Fn(f64, &str), cancel: &'a AtomicBool) -> Watch<'a> {
+    pub fn new(report: Report<'a>, cancel: &'a AtomicBool) -> Watch<'a> {
         Watch {
             report: Some(report),
             cancel: Some(cancel),

@@ -84,7 +84,7 @@ pub(crate) async fn queue_design(
     {
         DesignQueued::Created(row) => {
             st.wake.notify_one();
-            Ok(row)
+            Ok(*row)
         }
         DesignQueued::QueueFull => Err(queue_full()),
     }

@@ -34,7 +34,7 @@ struct DesignCols {
 /// What `queue_design_job` did.
 #[derive(Clone, Debug)]
 pub enum DesignQueued {
-    Created(DesignRow),
+    Created(Box<DesignRow>),
     /// The queue holds `max_queue` jobs already.
     QueueFull,
 }
@@ -75,12 +75,12 @@ impl Store {
         .await?;
         hint_job_queued(self.backend, &mut tx).await?;
         tx.commit().await?;
-        Ok(DesignQueued::Created(DesignRow {
+        Ok(DesignQueued::Created(Box::new(DesignRow {
             job,
             request: request.to_string(),
             requested_by: by.to_string(),
             design: None,
-        }))
+        })))
     }
 
     /// A design job and its row; `None` if `id` is no design job.
