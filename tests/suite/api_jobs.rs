@@ -128,10 +128,13 @@ async fn a_worker_whose_lease_was_reclaimed_cannot_write_its_result() {
         estimator: sinscal_core::calib::ResultEstimator::Lsq,
         ..Default::default()
     };
+    let sinscal_server::store::Subject::Run(run) = &a.subject else {
+        panic!("a calibrate job's claim names its run")
+    };
     assert!(!app
         .store
         .complete_job(
-            &a,
+            (&a.fence, run),
             &fake,
             sinscal_server::store::OnInadequate {
                 queue_diagnose: true,

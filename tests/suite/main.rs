@@ -18,6 +18,7 @@ mod api_calibration;
 mod api_certificate;
 mod api_compensation;
 mod api_design;
+mod api_design_jobs;
 mod api_diagnose;
 mod api_faults;
 mod api_jobs;

@@ -12,8 +12,8 @@ use sinscal_core::io::data::DataFormat;
 
 const CALIBRATION: Duration = Duration::from_secs(240);
 
-/// Every page and action, with the roles that may use it. `{run}` and
-/// `{unit}` are filled in.
+/// Every page and action, with the roles that may use it. `{run}`,
+/// `{unit}` and `{design}` are filled in.
 const PAGES: &[(&str, &[&str])] = &[
     ("/units/{unit}", &["engineer", "admin"]),
     // (A station reads its own runs only; this one is the admin's.)
@@ -30,6 +30,9 @@ const PAGES: &[(&str, &[&str])] = &[
     ),
     ("/runs/{run}/files/compensation.csv", &["engineer", "admin"]),
     ("/upload", &["station", "admin"]),
+    ("/design", &["engineer", "admin"]),
+    ("/designs/{design}", &["engineer", "admin"]),
+    ("/designs/{design}/progress", &["engineer", "admin"]),
     ("/admin", &["admin"]),
 ];
 
@@ -41,6 +44,7 @@ const ACTIONS: &[(&str, &[&str])] = &[
     ("/runs/{run}/calibrate", &["engineer", "admin"]),
     ("/runs/{run}/certificate/approve", &["engineer", "admin"]),
     ("/runs/{run}/delete", &["admin"]),
+    ("/design", &["engineer", "admin"]),
     ("/admin/tokens", &["admin"]),
     ("/admin/products", &["admin"]),
 ];
@@ -51,8 +55,25 @@ async fn calibrated_unit(app: &TestApp, serial: &str) -> String {
     app.upload_and_calibrate(serial, &run, CALIBRATION).await.0
 }
 
-fn fill(path: &str, run: &str, unit: &str) -> String {
-    path.replace("{run}", run).replace("{unit}", unit)
+fn fill(path: &str, run: &str, unit: &str, design: &str) -> String {
+    path.replace("{run}", run)
+        .replace("{unit}", unit)
+        .replace("{design}", design)
+}
+
+/// A design job, queued through the API (its page is there from then on).
+async fn queued_design(app: &TestApp) -> String {
+    let r = app
+        .http
+        .post(app.url("/designs"))
+        .bearer_auth(&app.admin)
+        .json(&serde_json::json!({"tighten": 0.1, "arw_deg_rt_h": 0.001, "max_turns": 7}))
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let job: serde_json::Value = r.json().await.unwrap();
+    job["id"].as_str().unwrap().to_string()
 }
 
 #[tokio::test]
@@ -63,7 +84,7 @@ async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
     let run = uuid::Uuid::new_v4().to_string();
     for (path, _) in PAGES {
         let r = http
-            .get(format!("{origin}{}", fill(path, &run, "U1")))
+            .get(format!("{origin}{}", fill(path, &run, "U1", &run)))
             .send()
             .await
             .unwrap();
@@ -72,7 +93,7 @@ async fn pages_refuse_without_a_session_and_show_the_sign_in_form() {
     }
     for (path, _) in ACTIONS {
         let r = http
-            .post(format!("{origin}{}", fill(path, &run, "U1")))
+            .post(format!("{origin}{}", fill(path, &run, "U1", &run)))
             .form(&[("csrf", "00")])
             .send()
             .await
@@ -143,6 +164,7 @@ async fn roles_hold_on_every_page_and_action_and_forms_need_their_csrf_token() {
     let app = spawn_app(1).await;
     let serial = "RLG-P1";
     let run = calibrated_unit(&app, serial).await;
+    let design = queued_design(&app).await;
     let mut sessions = Vec::new();
     for role in ["station", "engineer", "admin"] {
         let token = if role == "admin" {
@@ -164,7 +186,7 @@ async fn roles_hold_on_every_page_and_action_and_forms_need_their_csrf_token() {
     assert!(page.contains("compensation.json\" download"), "{page}");
     assert!(!page.contains("compensation-override"));
     for (path, allowed) in PAGES {
-        let path = fill(path, &run, serial);
+        let path = fill(path, &run, serial, &design);
         for (role, s) in &sessions {
             let status = s.get(&path).await.status();
             if allowed.contains(role) {
@@ -176,6 +198,21 @@ async fn roles_hold_on_every_page_and_action_and_forms_need_their_csrf_token() {
                     "{role} {path}: {status}"
                 );
             }
+        }
+    }
+    // A design's scheme file is the engineers' too (the queued design has
+    // none yet, so the allowed roles are told so, not refused).
+    for (role, s) in &sessions {
+        let status = s
+            .get(&format!("/designs/{design}/scheme.json"))
+            .await
+            .status();
+        match *role {
+            "station" => assert_eq!(status, StatusCode::FORBIDDEN),
+            _ => assert!(
+                status != StatusCode::FORBIDDEN && status != StatusCode::UNAUTHORIZED,
+                "{role}: {status}"
+            ),
         }
     }
     // The units page: engineers and admins; a station goes to its upload
@@ -194,7 +231,7 @@ async fn roles_hold_on_every_page_and_action_and_forms_need_their_csrf_token() {
         ("limits", "{}"),
     ];
     for (path, allowed) in ACTIONS {
-        let path = fill(path, &run, serial);
+        let path = fill(path, &run, serial, &design);
         for (role, s) in &sessions {
             // Without the token, or with another session's, nobody may.
             let forged = s.post_exactly(&path, &fields).await;

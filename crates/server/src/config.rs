@@ -44,6 +44,9 @@ pub mod defaults {
     pub const MIN_FREE_BYTES: u64 = 256 << 20;
     /// A Table 1 design at navigation-grade noise takes 15–30 s here.
     pub const DESIGN_TIME_LIMIT_SECS: f64 = 60.0;
+    /// A design job's limit: what the synchronous request's time-out
+    /// points to, so long enough for any design a station needs.
+    pub const DESIGN_JOB_TIME_LIMIT_SECS: f64 = 900.0;
     /// Not flags: the pause before a failed job is retried, and the
     /// concurrency limits of the HTTP layer.
     pub const RETRY_BACKOFF_SECS: u64 = 2;
@@ -154,6 +157,11 @@ pub struct ServeArgs {
     #[arg(long, env = "SINSCAL_DESIGN_TIME_LIMIT_SECS",
           default_value_t = defaults::DESIGN_TIME_LIMIT_SECS)]
     pub design_time_limit_secs: f64,
+    /// Wall time one design job (`POST /designs`, the design page) may
+    /// take, seconds.
+    #[arg(long, env = "SINSCAL_DESIGN_JOB_TIME_LIMIT_SECS",
+          default_value_t = defaults::DESIGN_JOB_TIME_LIMIT_SECS)]
+    pub design_job_time_limit_secs: f64,
     /// JSON object of repeatability tolerances by parameter name
     /// (canonical units), replacing the defaults it names.
     #[arg(long, env = "SINSCAL_TOLERANCES")]
@@ -213,6 +221,8 @@ pub struct Config {
     pub diagnose_inadequate: bool,
     /// Wall time one scheme design over HTTP may take.
     pub design_time_limit: Duration,
+    /// Wall time one design job may take.
+    pub design_job_time_limit: Duration,
     /// Where run files are kept.
     pub run_store: RunStoreSpec,
 }
@@ -290,6 +300,7 @@ impl Config {
             },
             diagnose_inadequate: defaults::DIAGNOSE_INADEQUATE,
             design_time_limit: Duration::from_secs_f64(defaults::DESIGN_TIME_LIMIT_SECS),
+            design_job_time_limit: Duration::from_secs_f64(defaults::DESIGN_JOB_TIME_LIMIT_SECS),
             run_store: RunStoreSpec::Local,
         }
     }
@@ -338,6 +349,11 @@ impl Config {
         c.min_free_bytes = a.min_free_bytes;
         c.design_time_limit =
             seconds_flag("design-time-limit-secs", a.design_time_limit_secs, 1.0)?;
+        c.design_job_time_limit = seconds_flag(
+            "design-job-time-limit-secs",
+            a.design_job_time_limit_secs,
+            1.0,
+        )?;
         c.run_store = a.run_store.clone().unwrap_or_default();
         if let Some(path) = &a.tolerances {
             let text = std::fs::read(path).map_err(|source| ConfigError::Read {

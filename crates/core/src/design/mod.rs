@@ -17,7 +17,10 @@
 pub mod detect;
 pub mod information;
 pub mod search;
+pub mod spec;
+mod summary;
 pub mod target;
+pub mod watch;
 
 use std::collections::BTreeMap;
 
@@ -34,7 +37,9 @@ pub use detect::DetectGoal;
 use detect::{DetectOutcome, Detection};
 use information::{Information, ObjectiveSettings};
 use search::{Scored, Scorer, SearchSpace};
+pub use spec::{DesignSpec, TargetSpec};
 pub use target::{Target, TargetError};
+pub use watch::Watch;
 
 /// Most turns a request may allow: a search's cost grows with it.
 const MAX_TURNS: usize = 96;
@@ -65,6 +70,9 @@ pub enum DesignError {
          or the margin, or run `sinscal design`, which has no limit"
     )]
     TimeLimit(f64),
+    /// The design's [`Watch`] was cancelled.
+    #[error("the design was cancelled")]
+    Cancelled,
     #[error(transparent)]
     Calib(#[from] CalibError),
     /// The check of a `--detect` goal by the discrepancy workflow failed.
@@ -278,10 +286,25 @@ fn validate(req: &DesignRequest, target: &Target) -> Result<(), DesignError> {
     Ok(())
 }
 
+/// Checks a request's ranges without designing (what [`design`] checks
+/// first): a server refuses a bad request before it queues it.
+pub fn check(req: &DesignRequest) -> Result<(), DesignError> {
+    validate(req, req.target.as_ref().unwrap_or(&Target::table1()))
+}
+
 /// Designs the shortest scheme for `req`.
 pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
-    validate(req, req.target.as_ref().unwrap_or(&Target::table1()))?;
-    match designed(req) {
+    design_watched(req, &Watch::quiet())
+}
+
+/// [`design`], reporting its progress to `watch` and stopping when it is
+/// cancelled; the same answer.
+pub fn design_watched(req: &DesignRequest, watch: &Watch) -> Result<Design, DesignError> {
+    check(req)?;
+    match designed(req, watch) {
+        Err(DesignError::Calib(CalibError::Cancelled)) if watch.cancelled() => {
+            Err(DesignError::Cancelled)
+        }
         Err(DesignError::Calib(CalibError::Cancelled)) => {
             Err(DesignError::TimeLimit(req.time_limit_s.unwrap_or(0.0)))
         }
@@ -289,7 +312,7 @@ pub fn design(req: &DesignRequest) -> Result<Design, DesignError> {
     }
 }
 
-fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
+fn designed(req: &DesignRequest, watch: &Watch) -> Result<Design, DesignError> {
     let deadline = req
         .time_limit_s
         .map(|s| std::time::Instant::now() + std::time::Duration::from_secs_f64(s));
@@ -297,13 +320,17 @@ fn designed(req: &DesignRequest) -> Result<Design, DesignError> {
     let scored = Scored::default();
     let mut round = 0;
     loop {
-        let (mut design, info) = searched(req, detection.as_ref(), deadline, &scored)?;
+        let (mut design, info) = searched(req, detection.as_ref(), (deadline, watch), &scored)?;
         let Some(d) = &mut detection else {
             return Ok(design);
         };
         if deadline.is_some_and(|t| std::time::Instant::now() >= t) {
             return Err(CalibError::Cancelled.into());
         }
+        watch.phase(
+            0.95,
+            "checking the detect goals with the discrepancy workflow",
+        );
         let run = realise(req, &design.scheme).map_err(DesignError::Invalid)?;
         design.detect = detect::outcomes(d, &d.thresholds(&info), &run, req)?;
         round += 1;
@@ -329,7 +356,7 @@ fn realise(req: &DesignRequest, s: &Scheme) -> Result<Scheme, String> {
 fn searched(
     req: &DesignRequest,
     detection: Option<&Detection>,
-    deadline: Option<std::time::Instant>,
+    (deadline, watch): (Option<std::time::Instant>, &Watch),
     scored: &Scored,
 ) -> Result<(Design, Information), DesignError> {
     let target = req.target.clone().unwrap_or_else(Target::table1);
@@ -348,6 +375,7 @@ fn searched(
         evaluations: std::cell::Cell::new(0),
         scored,
         deadline,
+        watch,
     };
     let frames: &[Frame] = match req.axes {
         Axes::Body => &[Frame::Body],
@@ -365,6 +393,7 @@ fn searched(
     };
     // Rank sequences at a dwell near the answer's: a first search at 300 s
     // finds the length, a second at the dwell it needed ranks again.
+    watch.phase(0.0, "searching turn sequences at 300 s dwells");
     let first = search::search_sequences(&space, &scorer, 300.0)?;
     let Some(first) = first else {
         return Err(DesignError::Invalid(format!(
@@ -378,11 +407,13 @@ fn searched(
         )));
     };
     let probe = first.dwells[0];
+    watch.phase(0.45, "searching turn sequences again at the dwell found");
     let second = search::search_sequences(&space, &scorer, probe)?;
     let pick = match second {
         Some(s) if s.information.duration_s < first.information.duration_s => s,
         _ => first,
     };
+    watch.phase(0.8, "trimming the dwells");
     let trimmed = search::trim_dwells(pick, &space, &scorer)?;
     // Whole seconds, rounded up: a dwell is set on a table's controller.
     let dwells: Vec<f64> = trimmed.dwells.iter().map(|d| d.ceil()).collect();
@@ -401,6 +432,7 @@ fn searched(
             )));
         }
     }
+    watch.phase(0.9, "comparing with the built-in schemes");
     let comparisons = ["ten-position", "ten-position-9+9"]
         .iter()
         .map(|name| compare(name, &scorer, space.max_dwell_s))
@@ -513,65 +545,5 @@ fn report(
         binding,
         comparisons,
         evaluations: scorer.evaluations.get(),
-    }
-}
-
-impl Design {
-    /// The printed summary: duration, σ against target per parameter, the
-    /// binding parameters and the built-in schemes on the same target.
-    pub fn summary(&self) -> String {
-        use std::fmt::Write as _;
-        let mut s = String::new();
-        let (dwells, turns) = self.scheme.counts();
-        let _ = writeln!(
-            s,
-            "scheme {}: {} dwells, {} turns, {:.0} s ({:.2} h); target {} with margin {}{}",
-            self.scheme.name,
-            dwells,
-            turns,
-            self.duration_s,
-            self.duration_s / 3600.0,
-            self.target,
-            self.margin,
-            if self.by_hand { ", turned by hand" } else { "" }
-        );
-        let _ = writeln!(
-            s,
-            "{:<20} {:>12} {:>12} {:>7}  unit",
-            "parameter", "sigma", "target", "ratio"
-        );
-        for p in PARAMETERS.iter() {
-            let q = &self.parameters[p.name];
-            let _ = writeln!(
-                s,
-                "{:<20} {:>12.5} {:>12.5} {:>7.2}  {}",
-                p.name, q.sigma, q.target, q.ratio, q.unit
-            );
-        }
-        for d in &self.detect {
-            let _ = writeln!(s, "{}", d.describe());
-        }
-        let _ = writeln!(s, "binding: {}", self.binding.join(", "));
-        for c in &self.comparisons {
-            match (c.dwell_s, c.duration_s) {
-                (Some(d), Some(t)) => {
-                    let _ = writeln!(
-                        s,
-                        "{}: needs {d:.0} s dwells, {t:.0} s ({:.2} h); worst ratio {:.2} at 600 s dwells",
-                        c.scheme,
-                        t / 3600.0,
-                        c.worst_ratio_at_600_s
-                    );
-                }
-                _ => {
-                    let _ = writeln!(
-                        s,
-                        "{}: does not reach the target with the dwells searched; worst ratio {:.2} at 600 s dwells",
-                        c.scheme, c.worst_ratio_at_600_s
-                    );
-                }
-            }
-        }
-        s
     }
 }

@@ -110,6 +110,9 @@ pub struct Scorer<'a> {
     /// When the search must give up (a server bounds what one request
     /// may cost); `None` searches to the end.
     pub deadline: Option<std::time::Instant>,
+    /// Told the count of schemes scored; its cancel stops the search as
+    /// the deadline does.
+    pub watch: &'a super::Watch<'a>,
 }
 
 impl Scorer<'_> {
@@ -117,10 +120,12 @@ impl Scorer<'_> {
         if self
             .deadline
             .is_some_and(|d| std::time::Instant::now() >= d)
+            || self.watch.cancelled()
         {
             return Err(CalibError::Cancelled);
         }
         self.evaluations.set(self.evaluations.get() + 1);
+        self.watch.scored(self.evaluations.get());
         let key = Scored::key(scheme);
         if let Some(info) = self.scored.0.borrow().get(&key) {
             return Ok(info.clone());

@@ -11,11 +11,13 @@ use super::error::ApiError;
 use super::{parse_id, rfc3339, AppState};
 use crate::store::{JobId, JobKind, JobRow, JobState, Role, RunId};
 
-#[derive(Serialize)]
+#[derive(Clone, Debug, Serialize)]
 pub struct JobView {
     pub id: JobId,
-    pub run_id: RunId,
-    /// calibrate or diagnose.
+    /// The job's run; absent for a design job, which has none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub run_id: Option<RunId>,
+    /// calibrate, diagnose or design.
     pub kind: JobKind,
     /// queued, running, succeeded, failed, dead_letter or cancelled.
     pub state: JobState,
@@ -71,11 +73,9 @@ async fn get_job(
     let not_found = || ApiError::NotFound(format!("no job {id}"));
     let job = st.store.get_job(id).await?.ok_or_else(not_found)?;
     if auth.role == Role::Station {
-        let uploader = st
-            .store
-            .get_run(job.run_id)
-            .await?
-            .and_then(|r| r.uploaded_by);
+        // A station reads only its own runs' jobs: never a design's.
+        let run_id = job.run_id.ok_or_else(not_found)?;
+        let uploader = st.store.get_run(run_id).await?.and_then(|r| r.uploaded_by);
         if !auth.may_read_run(uploader.as_deref()) {
             return Err(not_found());
         }

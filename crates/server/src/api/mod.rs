@@ -8,6 +8,7 @@ pub(crate) mod certificate;
 mod certificate_pdf;
 pub(crate) mod certificate_sheet;
 pub(crate) mod compensation;
+pub(crate) mod designs;
 pub mod error;
 mod jobs;
 pub(crate) mod noise;
@@ -92,6 +93,7 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .merge(units::router())
         .merge(thermal::router())
         .merge(schemes::router())
+        .merge(designs::router())
         .merge(tokens::router())
         .merge(products::router())
         .merge(upload)

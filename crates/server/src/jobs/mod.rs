@@ -15,9 +15,16 @@ use tokio::sync::Notify;
 use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
+mod design;
+
+use futures_util::future::BoxFuture;
+use futures_util::FutureExt as _;
+
 use crate::metrics::{ClaimOutcome, JobOutcome, Metrics};
 use crate::runstore::{LocalCopy, RunStore};
-use crate::store::{Claim, Fence, JobId, JobKind, JobState, OnInadequate, Store, StoreError};
+use crate::store::{
+    Claim, Fence, JobId, JobKind, JobState, OnInadequate, RunClaim, Store, StoreError, Subject,
+};
 use sinscal_core::calib::{CalibError, CalibrationResult, EstimateOptions, Progress};
 use sinscal_core::diagnose::{DiagnoseError, DiagnoseOptions};
 use sinscal_core::io::meta::RunMetadata;
@@ -130,6 +137,8 @@ pub struct JobSettings {
     pub retry_backoff: Duration,
     /// What a result whose model check fails sets going.
     pub on_inadequate: OnInadequate,
+    /// Wall time a design job may take; beyond it the job fails, saying so.
+    pub design_time_limit: Duration,
 }
 
 /// Runs jobs. One per server; each worker task calls
@@ -194,9 +203,12 @@ impl JobRunner {
             return Ok(Outcome::Empty);
         };
         let job_id = claim.fence.job_id;
-        tracing::info!(job = %job_id, run = %claim.run_id, attempt = claim.fence.attempt, "job claimed");
+        tracing::info!(job = %job_id, kind = %claim.kind, attempt = claim.fence.attempt, "job claimed");
         let started = Instant::now();
-        let end = self.run_claimed(&claim).await?;
+        let end = match &claim.subject {
+            Subject::Run(run) => self.run_claimed(&claim, run).await?,
+            Subject::Design { request } => self.run_design(&claim, request).await?,
+        };
         let seconds = started.elapsed().as_secs_f64();
         match end {
             JobEnd::Succeeded => self.metrics.job_finished(JobOutcome::Succeeded, seconds),
@@ -210,9 +222,9 @@ impl JobRunner {
         Ok(Outcome::Ran { job_id, end })
     }
 
-    async fn run_claimed(&self, claim: &Claim) -> Result<JobEnd, JobError> {
+    async fn run_claimed(&self, claim: &Claim, run: &RunClaim) -> Result<JobEnd, JobError> {
         let fence = &claim.fence;
-        let meta = match claim.metadata.parse() {
+        let meta = match run.metadata.parse() {
             Ok(m) => m,
             // Validated at upload; if it no longer parses, no retry helps.
             Err(e) => {
@@ -221,7 +233,7 @@ impl JobRunner {
                     .await
             }
         };
-        let estimate = match self.estimate_options(claim) {
+        let estimate = match self.estimate_options(run) {
             Ok(o) => o,
             // Validated when it was set; if it no longer parses, no retry helps.
             Err(e) => return self.fail(claim, &e, false).await,
@@ -229,7 +241,7 @@ impl JobRunner {
         // A local file to stream (for an object store, a scratch download
         // that goes when `local` is dropped, once the blocking work ends
         // however it ends). A store that cannot answer now may later.
-        let local = match self.fetch_run_file(claim).await {
+        let local = match self.fetch_run_file(fence, run).await {
             Fetched::Copy(local) => local,
             Fetched::Failed(e) => return self.fail(claim, &e, true).await,
             Fetched::LeaseLost => return Ok(JobEnd::LeaseLost),
@@ -252,41 +264,50 @@ impl JobRunner {
             return Ok(JobEnd::LeaseLost);
         }
         match joined {
-            Ok(Ok(done)) => self.store_product(claim, &done).await,
-            Ok(Err(Failure::Cancelled)) => {
-                let done = match reason {
-                    Some(StopReason::HandBack) => {
-                        if self.store.release_job(fence).await? {
-                            return Ok(JobEnd::HandedBack);
-                        }
-                        false
-                    }
-                    _ => self.store.finish_cancelled(fence).await?,
-                };
-                Ok(if done {
-                    JobEnd::Cancelled
-                } else {
-                    JobEnd::LeaseLost
-                })
+            Ok(Ok(Done::Calibration(result))) => {
+                let on = self.settings.on_inadequate;
+                let write = || self.store.complete_job((fence, run), &result, on).boxed();
+                self.store_product(fence, &write).await
             }
+            Ok(Ok(Done::Diagnosis(report))) => {
+                let write = || {
+                    self.store
+                        .complete_diagnose_job((fence, run), &report)
+                        .boxed()
+                };
+                self.store_product(fence, &write).await
+            }
+            Ok(Err(Failure::Cancelled)) => self.stopped(fence, reason).await,
             Ok(Err(Failure::Transient(e))) => self.fail(claim, &e, true).await,
             Ok(Err(Failure::Permanent(e))) => self.fail(claim, &e, false).await,
-            Err(join) => {
-                let what = if join.is_panic() {
-                    "the estimator panicked"
-                } else {
-                    "the estimator task was aborted"
-                };
-                self.fail(claim, what, true).await
-            }
+            Err(join) => self.fail(claim, &panicked(&join), true).await,
         }
+    }
+
+    /// Ends a job whose work stopped on its cancel flag: handed back to
+    /// the queue at shutdown, else cancelled; lost if its lease is.
+    async fn stopped(&self, fence: &Fence, reason: Option<StopReason>) -> Result<JobEnd, JobError> {
+        let done = match reason {
+            Some(StopReason::HandBack) => {
+                if self.store.release_job(fence).await? {
+                    return Ok(JobEnd::HandedBack);
+                }
+                false
+            }
+            _ => self.store.finish_cancelled(fence).await?,
+        };
+        Ok(if done {
+            JobEnd::Cancelled
+        } else {
+            JobEnd::LeaseLost
+        })
     }
 
     /// The estimator's options for a claimed job: the server's, carrying
     /// the run's own model (adopted, or its product type's) when it has one.
-    fn estimate_options(&self, claim: &Claim) -> Result<EstimateOptions, String> {
+    fn estimate_options(&self, run: &RunClaim) -> Result<EstimateOptions, String> {
         let mut estimate = self.settings.estimate.clone();
-        if let Some(model) = &claim.model {
+        if let Some(model) = &run.model {
             estimate.model = model
                 .parse()
                 .map_err(|e| format!("the run's stored model: {e}"))?;
@@ -297,16 +318,13 @@ impl JobRunner {
     /// Waits for the estimator, writing its progress as the lease's
     /// heartbeat; asks it to stop when the job is cancelled, the lease is
     /// lost or the worker hands its jobs back, and says which.
-    async fn watch(
+    async fn watch<T>(
         &self,
         fence: &Fence,
-        task: JoinHandle<Result<Done, Failure>>,
+        task: JoinHandle<T>,
         cancel: &AtomicBool,
         progress: &Mutex<(f64, String)>,
-    ) -> (
-        Result<Result<Done, Failure>, tokio::task::JoinError>,
-        Option<StopReason>,
-    ) {
+    ) -> (Result<T, tokio::task::JoinError>, Option<StopReason>) {
         tokio::pin!(task);
         let mut tick = self.heartbeat_clock().await;
         let mut reason: Option<StopReason> = None;
@@ -344,8 +362,8 @@ impl JobRunner {
     /// The claimed run's file as a local file, the lease renewed while it
     /// arrives: an object store's download of a large run can take longer
     /// than a lease.
-    async fn fetch_run_file(&self, claim: &Claim) -> Fetched {
-        let fetch = self.settings.run_store.local_copy(&claim.blob_path);
+    async fn fetch_run_file(&self, fence: &Fence, run: &RunClaim) -> Fetched {
+        let fetch = self.settings.run_store.local_copy(&run.blob_path);
         tokio::pin!(fetch);
         let mut tick = self.heartbeat_clock().await;
         loop {
@@ -358,12 +376,12 @@ impl JobRunner {
                 }
                 _ = tick.tick() => {
                     let lease = self.settings.lease;
-                    match self.store.heartbeat(&claim.fence, lease, 0.0, "fetching the run").await {
+                    match self.store.heartbeat(fence, lease, 0.0, "fetching the run").await {
                         Ok(None) => return Fetched::LeaseLost,
                         // A cancel request is seen by the first heartbeat
                         // of the work itself.
                         Ok(Some(_)) => {}
-                        Err(e) => tracing::warn!(job = %claim.fence.job_id, error = %e, "heartbeat failed"),
+                        Err(e) => tracing::warn!(job = %fence.job_id, error = %e, "heartbeat failed"),
                     }
                 }
             }
@@ -374,20 +392,16 @@ impl JobRunner {
     /// the product is kept and the write retried, with backoff, while the
     /// lease is renewed, until space returns, the lease is lost, or the
     /// server hands its jobs back.
-    async fn store_product(&self, claim: &Claim, done: &Done) -> Result<JobEnd, JobError> {
-        let fence = &claim.fence;
+    async fn store_product<'w>(
+        &self,
+        fence: &Fence,
+        write: &(dyn Fn() -> BoxFuture<'w, Result<bool, StoreError>> + Sync),
+    ) -> Result<JobEnd, JobError> {
         // Never longer than a heartbeat period, so the lease stays renewed.
         let longest = self.heartbeat_every();
         let mut wait = Duration::from_millis(50).min(longest);
         loop {
-            let written = match done {
-                Done::Calibration(result) => {
-                    self.store
-                        .complete_job(claim, result, self.settings.on_inadequate)
-                        .await
-                }
-                Done::Diagnosis(report) => self.store.complete_diagnose_job(claim, report).await,
-            };
+            let written = write().await;
             match written {
                 Ok(true) => return Ok(JobEnd::Succeeded),
                 Ok(false) => return Ok(JobEnd::LeaseLost),
@@ -441,6 +455,15 @@ impl JobRunner {
                 None => JobEnd::LeaseLost,
             },
         )
+    }
+}
+
+/// A blocking task's end that was no answer, in words.
+fn panicked(join: &tokio::task::JoinError) -> String {
+    if join.is_panic() {
+        "the estimator panicked".into()
+    } else {
+        "the estimator task was aborted".into()
     }
 }
 
@@ -542,6 +565,9 @@ fn spawn_estimator(
                 let result = calibrate_file(&path, &meta, &estimate, &mut report, &cancel)?;
                 Ok(Done::Calibration(Box::new(result)))
             }
+            // A design job is claimed with its request, never a run file
+            // (`design::run_design`).
+            JobKind::Design => Err(Failure::Permanent("a design job has no run".into())),
         }
     })
 }

@@ -186,6 +186,7 @@ impl Application {
                     queue_diagnose: config.diagnose_inadequate,
                     max_attempts: config.max_attempts,
                 },
+                design_time_limit: config.design_job_time_limit,
             },
             metrics.clone(),
         ));

@@ -17,7 +17,8 @@ use sinscal_core::calib::ErrorModel;
 #[derive(Clone, Debug, FromRow)]
 pub struct JobRow {
     pub id: JobId,
-    pub run_id: RunId,
+    /// The job's run; `None` for a design job, which has none.
+    pub run_id: Option<RunId>,
     pub kind: JobKind,
     pub state: JobState,
     pub attempts: i64,
@@ -362,11 +363,11 @@ mod tests {
     use super::*;
 
     /// A job `id` of its own run (so the one-job-per-run indexes stay out
-    /// of it) with this kind and state, read back.
+    /// of it; a design job has no run) with this kind and state, read back.
     async fn insert_job<'a, K, S>(
         conn: &mut sqlx::AnyConnection,
         id: &'a str,
-        kind: K,
+        (kind, run): (K, Option<&'a str>),
         state: S,
     ) -> Result<JobRow, sqlx::Error>
     where
@@ -383,9 +384,10 @@ mod tests {
         .await?;
         sqlx::query(
             "INSERT INTO jobs (id, run_id, kind, state, max_attempts, run_after, created_at)
-             VALUES ($1, $1, $2, $3, 1, 0, 0)",
+             VALUES ($1, $2, $3, $4, 1, 0, 0)",
         )
         .bind(id)
+        .bind(run)
         .bind(kind)
         .bind(state)
         .execute(&mut *conn)
@@ -410,14 +412,29 @@ mod tests {
         for kind in JobKind::ALL {
             for state in JobState::ALL {
                 let id = JobId::new().to_string();
-                let row = insert_job(&mut tx, &id, kind, state).await.unwrap();
+                let run = (kind != JobKind::Design).then_some(id.as_str());
+                let row = insert_job(&mut tx, &id, (kind, run), state).await.unwrap();
                 assert_eq!((row.kind, row.state), (kind, state));
             }
         }
-        let (a, b) = (JobId::new().to_string(), JobId::new().to_string());
-        assert!(insert_job(&mut tx, &a, "calibrate", "paused")
+        let ids: Vec<String> = (0..4).map(|_| JobId::new().to_string()).collect();
+        let (a, b) = (Some(ids[0].as_str()), Some(ids[1].as_str()));
+        assert!(insert_job(&mut tx, &ids[0], ("calibrate", a), "paused")
             .await
             .is_err());
-        assert!(insert_job(&mut tx, &b, "replay", "queued").await.is_err());
+        assert!(insert_job(&mut tx, &ids[1], ("replay", b), "queued")
+            .await
+            .is_err());
+        // A run's kinds need their run; a design has none.
+        assert!(insert_job(&mut tx, &ids[2], ("calibrate", None), "queued")
+            .await
+            .is_err());
+        let with_run = insert_job(
+            &mut tx,
+            &ids[3],
+            ("design", Some(ids[3].as_str())),
+            "queued",
+        );
+        assert!(with_run.await.is_err());
     }
 }

@@ -53,15 +53,19 @@ pub enum JobKind {
     /// The discrepancy workflow on a run: on request, or after a
     /// calibration whose model check failed.
     Diagnose,
+    /// A scheme design (`POST /designs`): the one kind that belongs to no
+    /// run; its request and answer are a `designs` row.
+    Design,
 }
 
 impl JobKind {
-    pub const ALL: [JobKind; 2] = [JobKind::Calibrate, JobKind::Diagnose];
+    pub const ALL: [JobKind; 3] = [JobKind::Calibrate, JobKind::Diagnose, JobKind::Design];
 
     pub fn as_str(self) -> &'static str {
         match self {
             JobKind::Calibrate => "calibrate",
             JobKind::Diagnose => "diagnose",
+            JobKind::Design => "design",
         }
     }
 }

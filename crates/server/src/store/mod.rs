@@ -23,6 +23,8 @@
 //!   (kept) when the run is calibrated again, earlier ones read back;
 //! - `queue`: what a worker does to the job it holds (claim, heartbeat,
 //!   complete, fail, cancel, release), every write behind one fence;
+//! - `designs`: design jobs (no run): queueing one with its request, its
+//!   answer stored under the fence, both read back;
 //! - `results`: results, diagnoses, units, history, repeatability;
 //! - `spread`: the per-result value blob and its statistics;
 //! - `verdicts`: each result's verdict (`accept::judge`) kept up to date
@@ -35,6 +37,7 @@
 
 mod certificates;
 mod db;
+mod designs;
 mod dialect;
 mod document;
 mod error;
@@ -54,6 +57,7 @@ mod versions;
 
 pub use certificates::{certificate_number, Approval, Approver, CertificateRow};
 pub use db::{now_ms, DatabaseUrl, Store};
+pub use designs::{DesignQueued, DesignRow};
 pub use dialect::{Backend, JOBS_CHANNEL};
 pub use document::Stored;
 pub use error::{is_storage_full_io, StoreError};
@@ -62,7 +66,7 @@ pub use ids::{JobId, RunId};
 pub use jobs::{Adoption, CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow};
 pub use kinds::{JobKind, JobState, Role};
 pub use products::{ProductTypeChange, ProductTypeRow};
-pub use queue::{Claim, Fence, OnInadequate};
+pub use queue::{Claim, Fence, OnInadequate, RunClaim, Subject};
 pub use results::{HistoryRow, SpreadRun, ThermalRow, UnitFilter, UnitSpread, UnitSummary};
 pub use runs::{InsertOutcome, NewRun, Review, RunDeletion, RunFile, RunRow};
 pub use spread::ParamSpread;

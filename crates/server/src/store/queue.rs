@@ -36,16 +36,36 @@ pub struct Claim {
     pub fence: Fence,
     /// What the worker runs.
     pub kind: JobKind,
+    pub max_attempts: i64,
+    /// What it runs on: a run, or a design's request.
+    pub subject: Subject,
+}
+
+/// What a claimed job works on.
+#[derive(Clone, Debug)]
+pub enum Subject {
+    /// A calibrate or diagnose job's run.
+    Run(RunClaim),
+    /// A design job's request, as the client wrote it (a
+    /// `sinscal_core::design::DesignSpec` as JSON), parsed by the worker
+    /// so that a value it refuses fails this job alone.
+    Design { request: String },
+}
+
+/// What a worker needs of a claimed job's run.
+#[derive(Clone, Debug, FromRow)]
+pub struct RunClaim {
     pub run_id: RunId,
+    #[sqlx(try_from = "String")]
     pub unit_serial: UnitSerial,
     pub run_time: i64,
     pub blob_path: String,
+    #[sqlx(try_from = "String")]
     pub metadata: Stored<RunMetadata>,
     /// The model a calibration job carries: the one adopted for the run,
     /// else its product type's (`None`: the server's). As stored, parsed
     /// by the worker, so that a value it refuses fails this job alone.
     pub model: Option<String>,
-    pub max_attempts: i64,
 }
 
 /// What storing a result sets going when its model check fails.
@@ -87,29 +107,17 @@ impl Fenced {
 #[derive(FromRow)]
 struct Claimed {
     id: JobId,
-    run_id: RunId,
+    run_id: Option<RunId>,
     attempts: i64,
     max_attempts: i64,
     kind: JobKind,
-}
-
-/// What a worker needs of the claimed job's run.
-#[derive(FromRow)]
-struct ClaimedRun {
-    #[sqlx(try_from = "String")]
-    unit_serial: UnitSerial,
-    run_time: i64,
-    blob_path: String,
-    #[sqlx(try_from = "String")]
-    metadata: Stored<RunMetadata>,
-    model: Option<String>,
 }
 
 impl Store {
     /// A write transaction in which the fenced job is already marked
     /// succeeded, for its product to be written beside; `None` (and nothing
     /// written) when the lease no longer holds.
-    async fn begin_succeeded(
+    pub(super) async fn begin_succeeded(
         &self,
         fence: &Fence,
         now: i64,
@@ -175,15 +183,29 @@ impl Store {
             tx.commit().await?;
             return Ok(None);
         };
-        let run: ClaimedRun = sqlx::query_as(
-            "SELECT r.unit_serial, r.run_time, r.blob_path, r.metadata,
-                    COALESCE(r.model, p.model) AS model
-             FROM runs r LEFT JOIN product_types p ON p.name = r.product
-             WHERE r.id = $1",
-        )
-        .bind(c.run_id)
-        .fetch_one(&mut *tx)
-        .await?;
+        let subject = match (c.kind, c.run_id) {
+            (JobKind::Design, _) => Subject::Design {
+                request: sqlx::query_scalar("SELECT request FROM designs WHERE job_id = $1")
+                    .bind(c.id)
+                    .fetch_one(&mut *tx)
+                    .await?,
+            },
+            (_, Some(run_id)) => Subject::Run(
+                sqlx::query_as(
+                    "SELECT r.id AS run_id, r.unit_serial, r.run_time, r.blob_path, r.metadata,
+                            COALESCE(r.model, p.model) AS model
+                     FROM runs r LEFT JOIN product_types p ON p.name = r.product
+                     WHERE r.id = $1",
+                )
+                .bind(run_id)
+                .fetch_one(&mut *tx)
+                .await?,
+            ),
+            // The schema's CHECK gives every other kind its run.
+            (kind, None) => {
+                return Err(StoreError::Corrupt(format!("a {kind} job without a run")));
+            }
+        };
         tx.commit().await?;
         Ok(Some(Claim {
             fence: Fence {
@@ -193,12 +215,7 @@ impl Store {
             },
             max_attempts: c.max_attempts,
             kind: c.kind,
-            run_id: c.run_id,
-            unit_serial: run.unit_serial,
-            run_time: run.run_time,
-            blob_path: run.blob_path,
-            metadata: run.metadata,
-            model: run.model,
+            subject,
         }))
     }
 
@@ -238,12 +255,11 @@ impl Store {
     /// is at most one per calibrated run, whose upload passed the limit.
     pub async fn complete_job(
         &self,
-        claim: &Claim,
+        (fence, claim): (&Fence, &RunClaim),
         result: &CalibrationResult,
         on_inadequate: OnInadequate,
     ) -> Result<bool, StoreError> {
         let now = now_ms();
-        let fence = &claim.fence;
         let result_json = serde_json::to_string(result)?;
         let Some(mut tx) = self.begin_succeeded(fence, now).await? else {
             return Ok(false);
@@ -296,11 +312,10 @@ impl Store {
     /// [`Store::complete_job`]). Writes no calibration result rows.
     pub async fn complete_diagnose_job(
         &self,
-        claim: &Claim,
+        (fence, claim): (&Fence, &RunClaim),
         report: &serde_json::Value,
     ) -> Result<bool, StoreError> {
         let now = now_ms();
-        let fence = &claim.fence;
         let report_json = serde_json::to_string(report)?;
         let Some(mut tx) = self.begin_succeeded(fence, now).await? else {
             return Ok(false);
@@ -432,7 +447,11 @@ mod tests {
         assert!(!store.finish_cancelled(&old.fence).await.unwrap());
         assert!(!store.release_job(&old.fence).await.unwrap());
         let report = serde_json::json!({});
-        assert!(!store.complete_diagnose_job(&old, &report).await.unwrap());
+        let Subject::Run(run) = &old.subject else {
+            panic!("a calibrate job's claim names its run")
+        };
+        let completed = store.complete_diagnose_job((&old.fence, run), &report);
+        assert!(!completed.await.unwrap());
 
         assert_eq!(
             store.heartbeat(&new.fence, lease, 0.5, "x").await.unwrap(),

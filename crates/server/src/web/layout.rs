@@ -38,6 +38,7 @@ fn nav(s: &Session) -> Markup {
             a.brand href="/" { "sinscal" }
             @if roles::ENGINEER.contains(&role) { a href="/" { "Units" } }
             @if roles::UPLOAD.contains(&role) { a href="/upload" { "Upload" } }
+            @if roles::ENGINEER.contains(&role) { a href="/design" { "Design" } }
             @if roles::ADMIN.contains(&role) { a href="/admin" { "Admin" } }
             span.who { "signed in as " (role.as_str()) }
             form.inline method="post" action="/signout" {

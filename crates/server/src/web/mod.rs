@@ -14,6 +14,8 @@ mod access;
 mod admin;
 mod assets;
 mod certificate;
+mod design;
+mod design_job;
 mod diagnosis;
 mod error;
 mod format;
@@ -69,6 +71,10 @@ pub fn router(max_body_bytes: u64) -> Router<AppState> {
         .route("/runs/{id}/certificate/approve", post(certificate::approve))
         .route("/runs/{id}/diagnosis", get(diagnosis::page))
         .route("/runs/{id}/noise", get(noise::page))
+        .route("/design", get(design::page).post(design::submit))
+        .route("/designs/{id}", get(design_job::page))
+        .route("/designs/{id}/progress", get(design_job::progress))
+        .route("/designs/{id}/scheme.json", get(design_job::download))
         .route("/admin", get(admin::page))
         .route("/admin/tokens", post(admin::create_token))
         .route("/admin/tokens/{id}/revoke", post(admin::revoke_token))

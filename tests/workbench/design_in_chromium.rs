@@ -1,0 +1,90 @@
+//! The design page in a real headless Chromium: an engineer opens the
+//! form (pre-filled with the docs' example), asks for a quick design (a
+//! loose goal at tactical-grade noise: the docs' Table 1 example takes
+//! about a minute on a two-core machine, too long for every CI run), is
+//! taken to the job's page, watches it to the end without reloading, and
+//! reads the scheme and its predicted accuracies. No page logs a console
+//! error. Screenshots go to `target/screenshots/workbench-design*.png`.
+
+use std::time::Duration;
+
+use crate::common::browser::Browser;
+use crate::common::spawn_app;
+use crate::steps::{shoot, sign_in, LOAD};
+
+/// The quick design takes seconds; generous for a loaded machine.
+const DESIGN: Duration = Duration::from_secs(120);
+
+/// Replaces the value of the form's field `name`.
+async fn set(b: &Browser, name: &str, value: &str) {
+    let field = b.find(&format!("form#design input[name='{name}']")).await;
+    field.clear().await;
+    field.send_keys(value).await;
+}
+
+#[tokio::test]
+async fn an_engineer_designs_a_scheme_in_chromium() {
+    // No worker: the job's page is seen queued, then the test runs it.
+    let app = spawn_app(0).await;
+    let origin = app.origin();
+    let engineer = app.create_token("engineer").await;
+    let b = Browser::start().await;
+    b.set_window_size(1280, 900).await;
+    sign_in(&b, &origin, &engineer).await;
+    b.wait_for("nav.top a[href='/design']", LOAD)
+        .await
+        .click()
+        .await;
+
+    b.wait_for("form#design", LOAD).await;
+    let margin = b.find("input[name='margin']").await.property("value").await;
+    assert_eq!(margin, "3");
+    assert_eq!(
+        b.find("select#target").await.property("value").await,
+        "table1"
+    );
+    shoot(&b, "design").await;
+
+    for (name, value) in [
+        ("tighten", "0.1"),
+        ("arw_deg_rt_h", "0.001"),
+        ("vrw_ug_rt_hz", "10"),
+        ("max_turns", "7"),
+    ] {
+        set(&b, name, value).await;
+    }
+    b.find("form#design button[type='submit']")
+        .await
+        .click()
+        .await;
+    b.wait_for_text("#progress .job-state", "queued", LOAD)
+        .await;
+    assert!(b.current_url().await.contains("/designs/"));
+    shoot(&b, "design-queued").await;
+
+    // The page follows the job by itself (htmx) and reloads once it ends.
+    let runner = app.runner.clone();
+    let step = tokio::spawn(async move { runner.try_run_next_job(0).await });
+    b.wait_for("table#scheme", DESIGN).await;
+    step.await.unwrap().unwrap();
+    let summary = b.find("#scheme-summary").await.text().await;
+    assert!(
+        summary.contains("turns") && summary.contains(" s"),
+        "{summary}"
+    );
+    // 24 parameters, every one within its target.
+    let rows = b.find_all("table#predicted tr").await;
+    assert_eq!(rows.len(), 1 + 24);
+    assert!(b.find_all("table#predicted tr.fail").await.is_empty());
+    assert!(b.find_all("table#scheme tr").await.len() >= 3);
+    let href = b
+        .find("a#scheme-download")
+        .await
+        .attr("href")
+        .await
+        .unwrap();
+    assert!(href.ends_with("/scheme.json"), "{href}");
+    shoot(&b, "design-scheme").await;
+    b.quit().await;
+    app.stop().await;
+}
