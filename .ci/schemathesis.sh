@@ -36,9 +36,10 @@ TOKEN="$(sed -n 's/^admin token (shown once, store it now): //p' "$OUT")"
 curl -sf -H "Authorization: Bearer $TOKEN" -F metadata=@"$DATA/sim/run.json" -F data=@"$DATA/sim/run.csv" \
   "$ADDR/api/v1/units/RLG-0042/runs" >/dev/null
 
-# Every check but positive_data_acceptance: an upload's validity depends on
+# Every check but positive_data_acceptance (and, for the design answered at
+# once, its documented 503 time-out: .ci/schemathesis.toml): an upload's validity depends on
 # its content (a schema-valid PNG is not run data) and time parameters on
 # their calendar validity, which a schema cannot say; those are 4xx by design.
-"$ST" run openapi.yaml --url "$ADDR/api/v1" -H "Authorization: Bearer $TOKEN" \
+"$ST" --config-file .ci/schemathesis.toml run openapi.yaml --url "$ADDR/api/v1" -H "Authorization: Bearer $TOKEN" \
   --checks all --exclude-checks positive_data_acceptance \
   --max-examples 30 --workers 2 --request-timeout 30

@@ -114,9 +114,11 @@ async fn stations_are_refused_and_a_bad_request_names_its_field() {
     let (status, _) = problem(post(&app, &station, &quick()).await).await;
     assert_eq!(status, StatusCode::FORBIDDEN);
 
-    // Malformed: a number as text, an unknown field; out of range: checked
-    // before anything is queued.
+    // Malformed: a number as text, an unknown field, an array where the
+    // object goes (serde would read it field by field as all defaults); out
+    // of range: checked before anything is queued.
     for (body, field) in [
+        (json!([null, null]), "JSON object"),
         (json!({"margin": "three"}), "margin"),
         (json!({"colour": "red"}), "colour"),
         (json!({"margin": 0.1}), "margin"),

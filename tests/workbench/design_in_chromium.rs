@@ -88,3 +88,37 @@ async fn an_engineer_designs_a_scheme_in_chromium() {
     b.quit().await;
     app.stop().await;
 }
+
+/// The docs' example (Table 1 at margin 3: the form as it opens) from the
+/// page to its scheme, with the server's own worker. A search of about half
+/// a minute, too long for every CI run: run it by hand with
+/// `cargo test --test workbench -- --ignored the_docs_example --nocapture`
+/// (its time is in docs/PERFORMANCE.md).
+#[tokio::test]
+#[ignore = "the docs' design example searches for about half a minute"]
+async fn the_docs_example_is_designed_from_the_page() {
+    let app = spawn_app(1).await;
+    let origin = app.origin();
+    let engineer = app.create_token("engineer").await;
+    let b = Browser::start().await;
+    b.set_window_size(1280, 900).await;
+    sign_in(&b, &origin, &engineer).await;
+    b.goto(&format!("{origin}/design")).await;
+    b.wait_for("form#design", LOAD).await;
+    let started = std::time::Instant::now();
+    b.find("form#design button[type='submit']")
+        .await
+        .click()
+        .await;
+    // The job's own limit (the server's default, 900 s) is the wait.
+    b.wait_for("table#scheme", Duration::from_secs(900)).await;
+    println!(
+        "the docs' example designed from the page in {:.1} s",
+        started.elapsed().as_secs_f64()
+    );
+    assert_eq!(b.find_all("table#predicted tr").await.len(), 1 + 24);
+    assert!(b.find_all("table#predicted tr.fail").await.is_empty());
+    shoot(&b, "design-docs-example").await;
+    b.quit().await;
+    app.stop().await;
+}

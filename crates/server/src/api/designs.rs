@@ -5,7 +5,7 @@
 //! limit, far longer than a synchronous request's; running out fails the
 //! job, saying so.
 
-use axum::extract::rejection::{JsonRejection, PathRejection};
+use axum::extract::rejection::PathRejection;
 use axum::extract::{Path, State};
 use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
@@ -16,6 +16,7 @@ use serde::Serialize;
 use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::jobs::JobView;
+use super::json_object::JsonObject;
 use super::upload_store::queue_full;
 use super::{parse_id, refuse_while_stopping, AppState};
 use crate::store::{DesignQueued, DesignRow, JobId};
@@ -101,9 +102,8 @@ pub(crate) async fn design_job(st: &AppState, id: JobId) -> Result<DesignRow, Ap
 async fn queue(
     State(st): State<AppState>,
     caller: Caller<roles::Engineer>,
-    body: Result<Json<DesignSpec>, JsonRejection>,
+    JsonObject(spec): JsonObject<DesignSpec>,
 ) -> Result<Response, ApiError> {
-    let Json(spec) = body?;
     let row = queue_design(&st, &caller, &spec).await?;
     let url = format!("/api/v1/designs/{}", row.job.id);
     let mut resp = (StatusCode::ACCEPTED, Json(DesignJobView::of(row)?)).into_response();

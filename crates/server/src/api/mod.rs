@@ -11,6 +11,7 @@ pub(crate) mod compensation;
 pub(crate) mod designs;
 pub mod error;
 mod jobs;
+mod json_object;
 pub(crate) mod noise;
 pub(crate) mod products;
 pub(crate) mod runs;

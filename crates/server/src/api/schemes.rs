@@ -10,7 +10,6 @@
 //! request's fault: 503, pointing to `POST /designs` (`designs`), which
 //! runs the same design as a job with a far longer limit.
 
-use axum::extract::rejection::JsonRejection;
 use axum::extract::State;
 use axum::routing::post;
 use axum::{Json, Router};
@@ -18,6 +17,7 @@ use axum::{Json, Router};
 use super::auth::{roles, Caller};
 use super::designs::refused;
 use super::error::ApiError;
+use super::json_object::JsonObject;
 use super::AppState;
 use sinscal_core::design::{design, Design, DesignError, DesignSpec};
 
@@ -31,9 +31,8 @@ pub fn router() -> Router<AppState> {
 async fn design_scheme(
     State(st): State<AppState>,
     _: Caller<roles::Engineer>,
-    body: Result<Json<DesignSpec>, JsonRejection>,
+    JsonObject(spec): JsonObject<DesignSpec>,
 ) -> Result<Json<Design>, ApiError> {
-    let Json(spec) = body?;
     let limit = st.config.design_time_limit.as_secs_f64();
     let req = spec.request(Some(limit)).map_err(refused)?;
     let permit = st
