@@ -90,12 +90,12 @@ async fn an_engineer_designs_a_scheme_in_chromium() {
 }
 
 /// The docs' example (Table 1 at margin 3: the form as it opens) from the
-/// page to its scheme, with the server's own worker. A search of about half
-/// a minute, too long for every CI run: run it by hand with
+/// page to its scheme, with the server's own worker. A search of about
+/// a minute in the test build, too long for every CI run: run it by hand with
 /// `cargo test --test workbench -- --ignored the_docs_example --nocapture`
 /// (its time is in docs/PERFORMANCE.md).
 #[tokio::test]
-#[ignore = "the docs' design example searches for about half a minute"]
+#[ignore = "the docs' design example searches for about a minute"]
 async fn the_docs_example_is_designed_from_the_page() {
     let app = spawn_app(1).await;
     let origin = app.origin();
