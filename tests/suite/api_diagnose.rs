@@ -9,8 +9,7 @@ use common::*;
 use reqwest::StatusCode;
 use serde_json::Value;
 use sinscal_core::io::data::DataFormat;
-use sinscal_core::model::{Effects, ErrorParameters};
-use sinscal_core::sim::{Noise, Scheme};
+use sinscal_core::model::ErrorParameters;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn diagnose_job_names_accel_delay() {
@@ -18,16 +17,7 @@ async fn diagnose_job_names_accel_delay() {
     // would otherwise queue a diagnose job by itself (tests/suite/api_model_check.rs).
     let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
     let dir = tempfile::tempdir().unwrap();
-    // The 9+9 scheme with 120 s dwells at 20 Hz: short enough to run in
-    // seconds, long enough for a 2 ms accelerometer delay to stand out.
-    let mut cfg = sim_config(11, ErrorParameters::paper(), "ten-position-9+9", 120.0);
-    cfg.sample_rate_hz = 20.0;
-    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
-    cfg.noise = Noise::default_navigation_grade();
-    cfg.effects = Effects {
-        accel_delay: Some(2.0),
-        ..Effects::none()
-    };
+    let cfg = model_check_run(11, delayed_accelerometers());
     let run = simulate_run(dir.path(), &cfg, DataFormat::F64le, false, "RLG-D1", None);
     let (run_id, calib) = app
         .upload_and_calibrate("RLG-D1", &run, Duration::from_secs(300))

@@ -9,8 +9,8 @@
 use crate::common::browser::{screenshot_path, Browser};
 use crate::common::{short_run, spawn_app, SimRun};
 use crate::steps::{
-    printed_pages, product_type, run_queued_jobs, shoot, sign_in, visit, with_product, CALIBRATION,
-    LOAD,
+    printed_pages, product_type, run_queued_jobs, shoot, sign_in, upload_for_product, visit,
+    with_product, CALIBRATION, LOAD,
 };
 use reqwest::StatusCode;
 use serde_json::json;
@@ -96,17 +96,7 @@ async fn the_workbench_in_chromium() {
 
     // Two more runs of the unit (through the API), then its page.
     for run in &runs[1..] {
-        let (_, meta) = with_product(run, "NAV-1");
-        let r = app
-            .upload_multipart(
-                &app.admin,
-                "RLG-A",
-                &meta,
-                std::fs::read(&run.data).unwrap(),
-            )
-            .await;
-        assert_eq!(r.status(), StatusCode::ACCEPTED);
-        let up: serde_json::Value = r.json().await.unwrap();
+        let up = upload_for_product(&app, "RLG-A", run, "NAV-1").await;
         run_queued_jobs(&app).await;
         let job = app.get_job(up["job_id"].as_str().unwrap()).await;
         assert_eq!(job["state"], "succeeded");
@@ -175,16 +165,7 @@ async fn the_workbench_in_chromium() {
     let rdir = dir.path().join("b");
     std::fs::create_dir_all(&rdir).unwrap();
     let rejected = short_run(&rdir, 21, DataFormat::Csv, "RLG-B");
-    let (_, meta) = with_product(&rejected, "NAV-TIGHT");
-    let r = app
-        .upload_multipart(
-            &app.admin,
-            "RLG-B",
-            &meta,
-            std::fs::read(&rejected.data).unwrap(),
-        )
-        .await;
-    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    upload_for_product(&app, "RLG-B", &rejected, "NAV-TIGHT").await;
     run_queued_jobs(&app).await;
     visit(&b, &origin, "/?verdict=rejected", "units-rejected").await;
     assert!(b.find("table#units").await.text().await.contains("RLG-B"));

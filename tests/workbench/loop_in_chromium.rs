@@ -8,38 +8,21 @@
 //! model's result still listed. Screenshots go to `target/screenshots/`.
 
 use crate::common::browser::Browser;
-use crate::common::{sim_config, simulate_run, spawn_app_with, TestApp};
-use crate::steps::{product_type, shoot, sign_in, visit, with_product, CALIBRATION, LOAD};
-use reqwest::StatusCode;
+use crate::common::{
+    delayed_accelerometers, model_check_run, simulate_run, spawn_app_with, TestApp,
+};
+use crate::steps::{product_type, shoot, sign_in, upload_for_product, visit, CALIBRATION, LOAD};
 use serde_json::{json, Value};
 use sinscal_core::io::data::DataFormat;
-use sinscal_core::model::{Effects, ErrorParameters};
-use sinscal_core::sim::{Noise, Scheme};
+use sinscal_core::model::ErrorParameters;
 
 /// The delayed unit's run: the 9+9 scheme with 120 s dwells at 20 Hz,
 /// long enough for a 2 ms accelerometer delay to stand out (as in
 /// tests/suite/api_diagnose.rs), uploaded under product NAV-1.
 async fn upload_delayed_unit(app: &TestApp, dir: &std::path::Path) -> String {
-    let mut cfg = sim_config(11, ErrorParameters::paper(), "ten-position-9+9", 120.0);
-    cfg.sample_rate_hz = 20.0;
-    cfg.scheme = Scheme::builtin("ten-position-9+9", 120.0).unwrap();
-    cfg.noise = Noise::default_navigation_grade();
-    cfg.effects = Effects {
-        accel_delay: Some(2.0),
-        ..Effects::none()
-    };
+    let cfg = model_check_run(11, delayed_accelerometers());
     let run = simulate_run(dir, &cfg, DataFormat::F64le, false, "RLG-D1", None);
-    let (_, meta) = with_product(&run, "NAV-1");
-    let r = app
-        .upload_multipart(
-            &app.admin,
-            "RLG-D1",
-            &meta,
-            std::fs::read(&run.data).unwrap(),
-        )
-        .await;
-    assert_eq!(r.status(), StatusCode::ACCEPTED);
-    let up: Value = r.json().await.unwrap();
+    let up = upload_for_product(app, "RLG-D1", &run, "NAV-1").await;
     up["run_id"].as_str().unwrap().to_string()
 }
 

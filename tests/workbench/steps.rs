@@ -1,5 +1,6 @@
 //! The steps the Chromium walks share: signing in, visiting a page with
-//! its screenshot (no console error allowed), product types, running the
+//! its screenshot (no console error allowed), product types, uploads for
+//! a product, running the
 //! queued jobs by hand, and counting a page's printed sheets.
 
 use std::time::Duration;
@@ -21,6 +22,23 @@ pub(crate) fn with_product(run: &SimRun, product: &str) -> (std::path::PathBuf, 
     let path = run.data.with_file_name("run-with-product.json");
     std::fs::write(&path, &bytes).unwrap();
     (path, bytes)
+}
+
+/// Uploads `run` of unit `serial` through the API as the admin, with
+/// `product` named in its metadata; the upload's answer (`run_id`,
+/// `job_id`).
+pub(crate) async fn upload_for_product(
+    app: &TestApp,
+    serial: &str,
+    run: &SimRun,
+    product: &str,
+) -> serde_json::Value {
+    let (_, meta) = with_product(run, product);
+    let r = app
+        .upload_multipart(&app.admin, serial, &meta, std::fs::read(&run.data).unwrap())
+        .await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    r.json().await.unwrap()
 }
 
 pub(crate) async fn product_type(app: &TestApp, name: &str, limits: serde_json::Value) {
