@@ -9,8 +9,8 @@
 use crate::common::browser::{screenshot_path, Browser};
 use crate::common::{short_run, spawn_app, SimRun};
 use crate::steps::{
-    printed_pages, product_type, run_queued_jobs, shoot, sign_in, upload_for_product, visit,
-    with_product, CALIBRATION, LOAD,
+    nav1_product, printed_pages, product_type, run_queued_jobs, shoot, sign_in, upload_for_product,
+    visit, with_product, CALIBRATION, LOAD,
 };
 use reqwest::StatusCode;
 use serde_json::json;
@@ -20,12 +20,7 @@ use sinscal_core::io::data::DataFormat;
 async fn the_workbench_in_chromium() {
     let app = spawn_app(0).await;
     let origin = app.origin();
-    product_type(
-        &app,
-        "NAV-1",
-        json!({"gyro_bias_x": {"max_abs_value": 1.0, "max_sigma": 0.1}}),
-    )
-    .await;
+    nav1_product(&app).await;
     // Tight enough that the paper's 0.05 deg/h bias fails it.
     product_type(
         &app,

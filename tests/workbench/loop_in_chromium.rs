@@ -11,8 +11,8 @@ use crate::common::browser::Browser;
 use crate::common::{
     delayed_accelerometers, model_check_run, simulate_run, spawn_app_with, TestApp,
 };
-use crate::steps::{product_type, shoot, sign_in, upload_for_product, visit, CALIBRATION, LOAD};
-use serde_json::{json, Value};
+use crate::steps::{nav1_product, shoot, sign_in, upload_for_product, visit, CALIBRATION, LOAD};
+use serde_json::Value;
 use sinscal_core::io::data::DataFormat;
 use sinscal_core::model::ErrorParameters;
 
@@ -67,12 +67,7 @@ async fn a_diagnosed_delay_is_adopted_from_the_pages() {
     // Diagnosis on the engineer's click, not queued by the failed check.
     let app = spawn_app_with(0, |c| c.diagnose_inadequate = false).await;
     let origin = app.origin();
-    product_type(
-        &app,
-        "NAV-1",
-        json!({"gyro_bias_x": {"max_abs_value": 1.0, "max_sigma": 0.1}}),
-    )
-    .await;
+    nav1_product(&app).await;
     let dir = tempfile::tempdir().unwrap();
     let run_id = upload_delayed_unit(&app, dir.path()).await;
     let b = Browser::start().await;

@@ -41,6 +41,16 @@ pub(crate) async fn upload_for_product(
     r.json().await.unwrap()
 }
 
+/// The walks' product type NAV-1: loose limits the paper's unit passes.
+pub(crate) async fn nav1_product(app: &TestApp) {
+    product_type(
+        app,
+        "NAV-1",
+        json!({"gyro_bias_x": {"max_abs_value": 1.0, "max_sigma": 0.1}}),
+    )
+    .await;
+}
+
 pub(crate) async fn product_type(app: &TestApp, name: &str, limits: serde_json::Value) {
     let r = app
         .http
