@@ -240,7 +240,15 @@ impl EffectParameter {
                 Group::GyroScale => 2.0,
                 Group::AccelBias => 20.0,
                 Group::AccelScale => 10.0,
-                Group::GyroMisalign | Group::AccelMisalign => 1.0,
+                // Ten arcsec per °C, loose on purpose: the passes centre
+                // each filter's prior on the estimate so far, so a prior
+                // that informs a direction leaves that direction's σ with
+                // information the estimate no longer uses. A ramp over a
+                // few positions learns the coefficients that turn both
+                // triads together (with k) mostly from the prior at 1″/°C:
+                // their errors ran 1.75 times their σ, 1.34 at 10″/°C and
+                // at 100″/°C alike.
+                Group::GyroMisalign | Group::AccelMisalign => 10.0,
                 Group::AccelQuad => 5.0,
             },
             // The linear coefficient's prior over 20 °C, the largest |ΔT|
