@@ -377,7 +377,10 @@ impl Browser {
                 match e.try_text().await {
                     Ok(t) if t.contains(needle) => return e,
                     Ok(t) => seen.push(t),
-                    Err(err) if err.error == "stale element reference" => {}
+                    // Swapped out (htmx) or the page moved on between the
+                    // find and the read: chromedriver says either, by
+                    // timing. The next round finds the new element.
+                    Err(err) if gone(&err) => {}
                     Err(err) => panic!("text of `{css}`: {err}"),
                 }
             }
@@ -498,12 +501,7 @@ impl Browser {
     /// command for Chromium; chromedriver forwards DevTools commands, and
     /// `Page.captureScreenshot` can capture beyond the viewport.
     pub async fn full_page_screenshot(&self, path: impl AsRef<Path>) {
-        let metrics = self.cdp("Page.getLayoutMetrics", json!({})).await;
-        let size = &metrics["cssContentSize"];
-        let (w, h) = (
-            size["width"].as_f64().unwrap_or(0.0).ceil(),
-            size["height"].as_f64().unwrap_or(0.0).ceil(),
-        );
+        let (w, h) = self.content_size().await;
         let shot = self
             .cdp(
                 "Page.captureScreenshot",
@@ -517,12 +515,39 @@ impl Browser {
         write_png(path.as_ref(), shot["data"].as_str().unwrap_or(""));
     }
 
+    /// The page's content size in CSS pixels, once it has one: on a loaded
+    /// machine a page just navigated to can report 0 × 0 for a moment
+    /// (layout not yet run), and Chromium refuses a capture of 0 width.
+    async fn content_size(&self) -> (f64, f64) {
+        for _ in 0..100 {
+            let metrics = self.cdp("Page.getLayoutMetrics", json!({})).await;
+            let size = &metrics["cssContentSize"];
+            let (w, h) = (
+                size["width"].as_f64().unwrap_or(0.0).ceil(),
+                size["height"].as_f64().unwrap_or(0.0).ceil(),
+            );
+            if w > 0.0 && h > 0.0 {
+                return (w, h);
+            }
+            tokio::time::sleep(Duration::from_millis(50)).await;
+        }
+        panic!("the page has no layout after 5 s (content size 0)");
+    }
+
     /// A Chrome DevTools Protocol command, through chromedriver.
     pub async fn cdp(&self, cmd: &str, params: Value) -> Value {
         self.driver
             .post("/goog/cdp/execute", json!({ "cmd": cmd, "params": params }))
             .await
     }
+}
+
+/// Whether a WebDriver error says the element is no longer in the page.
+fn gone(err: &WdError) -> bool {
+    matches!(
+        err.error.as_str(),
+        "stale element reference" | "no such element"
+    )
 }
 
 impl Drop for Browser {
