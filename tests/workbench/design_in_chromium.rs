@@ -9,7 +9,7 @@
 use std::time::Duration;
 
 use crate::common::browser::Browser;
-use crate::common::spawn_app;
+use crate::common::{spawn_app, TestApp};
 use crate::steps::{shoot, sign_in, LOAD};
 
 /// The quick design takes seconds; generous for a loaded machine.
@@ -22,15 +22,21 @@ async fn set(b: &Browser, name: &str, value: &str) {
     field.send_keys(value).await;
 }
 
-#[tokio::test]
-async fn an_engineer_designs_a_scheme_in_chromium() {
-    // No worker: the job's page is seen queued, then the test runs it.
-    let app = spawn_app(0).await;
-    let origin = app.origin();
+/// A server with `workers` workers, and Chromium signed in to it as an
+/// engineer.
+async fn engineer_in_chromium(workers: usize) -> (TestApp, Browser) {
+    let app = spawn_app(workers).await;
     let engineer = app.create_token("engineer").await;
     let b = Browser::start().await;
     b.set_window_size(1280, 900).await;
-    sign_in(&b, &origin, &engineer).await;
+    sign_in(&b, &app.origin(), &engineer).await;
+    (app, b)
+}
+
+#[tokio::test]
+async fn an_engineer_designs_a_scheme_in_chromium() {
+    // No worker: the job's page is seen queued, then the test runs it.
+    let (app, b) = engineer_in_chromium(0).await;
     b.wait_for("nav.top a[href='/design']", LOAD)
         .await
         .click()
@@ -97,12 +103,8 @@ async fn an_engineer_designs_a_scheme_in_chromium() {
 #[tokio::test]
 #[ignore = "the docs' design example searches for about a minute"]
 async fn the_docs_example_is_designed_from_the_page() {
-    let app = spawn_app(1).await;
+    let (app, b) = engineer_in_chromium(1).await;
     let origin = app.origin();
-    let engineer = app.create_token("engineer").await;
-    let b = Browser::start().await;
-    b.set_window_size(1280, 900).await;
-    sign_in(&b, &origin, &engineer).await;
     b.goto(&format!("{origin}/design")).await;
     b.wait_for("form#design", LOAD).await;
     let started = std::time::Instant::now();
