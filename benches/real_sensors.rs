@@ -19,7 +19,9 @@
 //!   point along its own axis (SPEC §3), which the model check must flag;
 //! - `--vs-plan`: each run's σ against `plan`'s prediction for the same
 //!   scheme, start attitude and (simulated) noise model, the range of the
-//!   ratio reported;
+//!   ratio reported, and per family the RMS of err / plan's σ (how close
+//!   the estimates themselves come to that covariance analysis, whatever
+//!   σ they report);
 //! - `--paper-truth`: the paper's parameters and heading 123° on every
 //!   seed (the reference scenario) instead of random truths and headings;
 //! - `--no-fit`: the measured noise model stands (no likelihood fit);
@@ -279,9 +281,9 @@ fn unquantized(
     Some((sigma_ratio, worst))
 }
 
-/// The range of σ / `plan`'s σ for the run's scheme, start attitude and
-/// simulated noise model.
-fn plan_ratio(cfg: &SimConfig, res: &CalibrationResult) -> [f64; 2] {
+/// σ / `plan`'s σ for the run's scheme, start attitude and simulated
+/// noise model, in `PARAMETERS` order.
+fn plan_ratio(cfg: &SimConfig, res: &CalibrationResult) -> Vec<f64> {
     let input = PlanInput {
         scheme: cfg.scheme.clone(),
         site: cfg.site,
@@ -290,12 +292,10 @@ fn plan_ratio(cfg: &SimConfig, res: &CalibrationResult) -> [f64; 2] {
         initial_attitude_error_deg: cfg.initial_attitude_error_deg,
     };
     let predicted = plan(&input, &EstimateOptions::default()).expect("a plan");
-    let mut range = [f64::INFINITY, 0.0f64];
-    for info in PARAMETERS.iter() {
-        let r = res.parameters[info.name].sigma / predicted.parameters[info.name].sigma;
-        range = [range[0].min(r), range[1].max(r)];
-    }
-    range
+    PARAMETERS
+        .iter()
+        .map(|info| res.parameters[info.name].sigma / predicted.parameters[info.name].sigma)
+        .collect()
 }
 
 /// A seed's line for `--per-seed`: its noise, the model check, and every
@@ -327,7 +327,7 @@ struct SeedOutcome {
     /// With `--vs-unquantized`: see [`unquantized`].
     unquantized: Option<(f64, [f64; FAMILIES])>,
     /// With `--vs-plan`: see [`plan_ratio`].
-    plan_ratio: Option<[f64; 2]>,
+    plan_ratio: Option<Vec<f64>>,
     /// The `--per-seed` line.
     line: String,
 }
@@ -380,6 +380,9 @@ struct Tally {
     sigma_ratio: f64,
     worst_plain: [f64; FAMILIES],
     plan_ratio: [f64; 2],
+    /// Σ (err / plan's σ)² per family: the estimates' own efficiency,
+    /// whatever σ they report.
+    plan_z2: [f64; FAMILIES],
     sources: BTreeMap<String, usize>,
     inadequate: usize,
 }
@@ -394,6 +397,7 @@ impl Tally {
             sigma_ratio: 0.0,
             worst_plain: [0.0; FAMILIES],
             plan_ratio: [f64::INFINITY, 0.0],
+            plan_z2: [0.0; FAMILIES],
             sources: BTreeMap::new(),
             inadequate: 0,
         }
@@ -407,8 +411,11 @@ impl Tally {
                 *w = w.max(v);
             }
         }
-        if let Some([lo, hi]) = o.plan_ratio {
-            self.plan_ratio = [self.plan_ratio[0].min(lo), self.plan_ratio[1].max(hi)];
+        if let Some(ratios) = &o.plan_ratio {
+            for (r, s) in ratios.iter().zip(&o.scores) {
+                self.plan_ratio = [self.plan_ratio[0].min(*r), self.plan_ratio[1].max(*r)];
+                self.plan_z2[s.family] += (s.z * r).powi(2);
+            }
         }
         if !o.adequate {
             self.inadequate += 1;
@@ -440,6 +447,14 @@ impl Tally {
             println!(
                 "σ / plan's σ for the same noise model: {:.3}–{:.3}",
                 self.plan_ratio[0], self.plan_ratio[1]
+            );
+            let per_family = Group::ALL.iter().enumerate().map(|(k, g)| {
+                let rms = (self.plan_z2[k] / self.count[k].max(1) as f64).sqrt();
+                format!("{g:?} {rms:.2}")
+            });
+            println!(
+                "RMS err / plan's σ (the estimates' efficiency): {}",
+                per_family.collect::<Vec<_>>().join(", ")
             );
         }
         for (k, g) in Group::ALL.iter().enumerate() {
