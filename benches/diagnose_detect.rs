@@ -6,8 +6,8 @@
 //! per quantity. Runs: the 9+9 scheme, paper truth, navigation-grade
 //! noise; table turns at 20 Hz, or with `--manual` turned by hand (SPEC §4
 //! flips drawn from the seed) at 100 Hz. Run: `cargo bench --bench
-//! diagnose_detect` (`-- --seeds N`, default 10; `-- --dwell S`, default
-//! 300; `-- --manual`).
+//! diagnose_detect` (`-- --seeds N`, default 10, from `-- --first F`,
+//! default 1; `-- --dwell S`, default 300; `-- --manual`).
 //!
 //! `-- --real` gives every run a real unit's noise (SPEC §2a, drawn per
 //! seed: pulses, wandering biases, floor vibration), which the diagnosis
@@ -83,13 +83,14 @@ fn main() {
     let args = common::BenchArgs::from_env();
     let flag = |name: &str| args.number(name);
     let seeds = flag("--seeds").map_or(10, |n| n as u64);
+    let first = flag("--first").map_or(1, |n| n as u64);
     let dwell_s = flag("--dwell").unwrap_or(300.0);
     let manual = args.switch("--manual");
     let real = args.switch("--real");
     let factor = flag("--factor").unwrap_or(2.0);
     let mut tally: BTreeMap<String, Tally> = BTreeMap::new();
     let mut clean_named = 0;
-    for seed in 1..=seeds {
+    for seed in first..first + seeds {
         let run_with = |effects: Effects| {
             let nominal = nine_plus_nine(dwell_s);
             let mut cfg = if manual {

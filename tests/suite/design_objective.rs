@@ -136,8 +136,9 @@ fn the_objective_predicts_the_workflow_s_detection_thresholds() {
             detect: vec![goal.clone()],
             ..DesignRequest::default()
         };
-        let detection = Detection::new(&req.detect, naming_bar());
-        let info = scheme_information(&scheme, &objective_settings(&req)).unwrap();
+        let settings = objective_settings(&req);
+        let detection = Detection::new(&req.detect, naming_bar(), settings.priors.grade);
+        let info = scheme_information(&scheme, &settings).unwrap();
         let predicted = detection.thresholds(&info)[0];
         let checked = thresholds_before_data(
             &PlanInput {

@@ -10,7 +10,7 @@ use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::estimation::effect_columns::EffectParameter;
 use crate::model::units::{DEG_PER_H, DEG_PER_H_PER_G, HOUR, PPM, UG};
-use crate::model::{Group, PARAMETERS};
+use crate::model::{Grade, Group, PARAMETERS};
 
 const AXES: [&str; 3] = ["x", "y", "z"];
 
@@ -217,12 +217,35 @@ impl EffectParameter {
         }
     }
 
-    /// Prior 1-σ of the state as a calibration carries it (reporting
-    /// unit): several times the largest a navigation-grade unit shows
-    /// (SPEC §3's realistic ranges: arms to 10 cm, delays to 5 ms, drift to
-    /// 0.02 deg/h/h and 20 µg/h, g-sensitivity to 0.02 deg/h/g, asymmetry
-    /// to 100 ppm), so the prior bounds only what the run cannot see.
-    pub fn prior_sigma(self) -> f64 {
+    /// Prior 1-σ of the state as a calibration of a unit of `grade`
+    /// carries it (reporting unit): the navigation-grade prior
+    /// ([`Self::navigation_prior_sigma`]), widened for the effects that
+    /// grow with the grade's errors by as much as its datasheets widen the
+    /// family they belong to. A MEMS gyro's g-sensitivity is a bias that
+    /// follows the specific force (imu_tk's Xsens recording: 100–560
+    /// deg/h/g, where a ring-laser gyro shows hundredths), its drift a bias
+    /// that moves, its scale asymmetry a part of its scale factor; the
+    /// navigation priors would hold them at a ten-thousandth of their size.
+    /// Lever arms, delays and the thermal states keep their priors: a
+    /// board's geometry and a logger's skew do not scale with the sensors.
+    pub fn prior_sigma(self, grade: Grade) -> f64 {
+        use EffectParameter as S;
+        let widened = |group: Group| grade.magnitude(group) / Grade::Navigation.magnitude(group);
+        let factor = match self {
+            S::GSensitivity { .. } | S::GyroBiasDrift(_) => widened(Group::GyroBias),
+            S::AccelBiasDrift(_) => widened(Group::AccelBias),
+            S::GyroScaleAsymmetry(_) => widened(Group::GyroScale),
+            _ => 1.0,
+        };
+        factor * self.navigation_prior_sigma()
+    }
+
+    /// Prior 1-σ at navigation grade (reporting unit): several times the
+    /// largest a navigation-grade unit shows (SPEC §3's realistic ranges:
+    /// arms to 10 cm, delays to 5 ms, drift to 0.02 deg/h/h and 20 µg/h,
+    /// g-sensitivity to 0.02 deg/h/g, asymmetry to 100 ppm), so the prior
+    /// bounds only what the run cannot see.
+    fn navigation_prior_sigma(self) -> f64 {
         use EffectParameter as S;
         match self {
             S::LeverArm { .. } => 300.0,
@@ -255,7 +278,9 @@ impl EffectParameter {
             // from 25 °C a chamber run spends most of its time at: a
             // curvature several times the size that bends a 40 °C ramp by
             // its linear term's tenth.
-            S::ThermalQuadratic(i) => S::ThermalLinear(i).prior_sigma() / CURVATURE_PRIOR_SPAN_C,
+            S::ThermalQuadratic(i) => {
+                S::ThermalLinear(i).navigation_prior_sigma() / CURVATURE_PRIOR_SPAN_C
+            }
             // RLG biases move by hundredths of a deg/h at a chamber's
             // fastest ramps (a few °C/min).
             S::GyroBiasRate(_) => 0.1,
@@ -392,6 +417,20 @@ mod tests {
     }
 
     #[test]
+    fn priors_widen_with_the_grade_for_the_sensors_effects_only() {
+        let g = EffectParameter::GSensitivity { gyro: 1, axis: 0 };
+        let arm = ErrorModel::with(&[Effect::AccelLeverArm]).states()[0];
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9 * b;
+        assert!(close(g.prior_sigma(Grade::Navigation), 0.1));
+        assert!(close(g.prior_sigma(Grade::Tactical), 50.0));
+        assert!(close(g.prior_sigma(Grade::Consumer), 3600.0));
+        assert_eq!(
+            arm.prior_sigma(Grade::Consumer),
+            arm.prior_sigma(Grade::Navigation)
+        );
+    }
+
+    #[test]
     fn state_names_are_unique_and_carry_units() {
         let all = ErrorModel::with(&Effect::ALL).states();
         let mut names: Vec<String> = all.iter().map(|p| p.name()).collect();
@@ -400,6 +439,6 @@ mod tests {
         assert_eq!(names.len(), all.len());
         assert!(all
             .iter()
-            .all(|p| p.si_per_unit() > 0.0 && p.prior_sigma() > 0.0));
+            .all(|p| p.si_per_unit() > 0.0 && Grade::ALL.iter().all(|&g| p.prior_sigma(g) > 0.0)));
     }
 }

@@ -290,7 +290,13 @@ fn estimate_from(
     };
     let parameters = parameter_table(&params, &last, ctx.priors(), &mut findings);
     findings.warnings.extend(thermal_span_warning(ctx));
-    let effect_estimates = effect_table(&effect_states, &effects, &last, &mut findings);
+    let effect_estimates = effect_table(
+        &effect_states,
+        &effects,
+        &last,
+        ctx.priors().grade,
+        &mut findings,
+    );
     findings
         .warnings
         .extend(run_warnings(ctx, cross_check.as_ref()));
@@ -423,7 +429,7 @@ fn refit_noise<'a>(
             .trace
             .take()
             .ok_or_else(|| CalibError::Numerical("the pass kept no trace".into()))?;
-        let scale = effect_terms(&ctx.opts.model, &est.effects).scale;
+        let scale = effect_terms(&ctx.opts.model, &est.effects, ctx.priors().grade).scale;
         fit_noise(ctx, &trace, &scale, &ctx.noise, &FreeTerm::SETTLED)?
     };
     let fitted = ctx.with_noise(fit.model);
@@ -469,7 +475,7 @@ fn fit_noise_with_curvature(ctx: &PassContext, est: &Estimate) -> Result<NoiseFi
     let trace = pass
         .trace
         .ok_or_else(|| CalibError::Numerical("the curvature pass kept no trace".into()))?;
-    let scale = effect_terms(&opts.model, &effects).scale;
+    let scale = effect_terms(&opts.model, &effects, ctx.priors().grade).scale;
     fit_noise(&probe, &trace, &scale, &ctx.noise, &FreeTerm::SETTLED)
 }
 

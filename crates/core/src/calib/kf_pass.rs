@@ -15,7 +15,7 @@ use super::segment::SegmentKind;
 use super::walk::{align_start, walk, PassContext};
 use crate::estimation::effect_columns::EffectTerms;
 use crate::estimation::filter::{Innovation, FORGOTTEN_VELOCITY_SIGMA_MPS};
-use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
+use crate::model::{ErrorParameters, Grade, N_PARAMS, PARAMETERS};
 
 /// Sums over one dwell's zero-velocity innovations, from which the
 /// post-fit residual ȳ − M p̂ follows for the final estimate p̂ without
@@ -74,12 +74,12 @@ impl DwellAccumulator {
 
 /// The walk's effect terms for `model` with the effects at `effects` (SI,
 /// state order) taken out of the records: each state in units of its
-/// prior σ.
-pub(super) fn effect_terms(model: &ErrorModel, effects: &[f64]) -> EffectTerms {
+/// prior σ at `grade`.
+pub(super) fn effect_terms(model: &ErrorModel, effects: &[f64], grade: Grade) -> EffectTerms {
     let states = model.states();
     let scale = states
         .iter()
-        .map(|s| s.prior_sigma() * s.si_per_unit())
+        .map(|s| s.prior_sigma(grade) * s.si_per_unit())
         .collect();
     let removed = states
         .iter()
@@ -135,7 +135,7 @@ pub(super) fn filter_pass(
 ) -> Result<Pass, CalibError> {
     let comp = params.compensator();
     let c_b_n0 = align_start(ctx, &comp)?;
-    let terms = effect_terms(&ctx.opts.model, effects);
+    let terms = effect_terms(&ctx.opts.model, effects, ctx.priors().grade);
 
     let mut kf = ctx.filter_with_effects(ctx.opts.zupt_sigma_mps, &terms.scale);
     let n_p = kf.n_params();

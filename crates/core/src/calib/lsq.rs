@@ -62,7 +62,7 @@ pub(super) fn lsq_pass(
     // The least squares carries no effect states: the model's effects are
     // held at `effects` (the filter's answer) and taken out of the records.
     let terms = EffectTerms {
-        removed: effect_terms(&ctx.opts.model, effects).removed,
+        removed: effect_terms(&ctx.opts.model, effects, ctx.priors().grade).removed,
         ..EffectTerms::none()
     };
     let site = &ctx.run.site;

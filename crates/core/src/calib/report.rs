@@ -15,7 +15,7 @@ use super::thermal_states::{is_thermal, run_thermal};
 use super::walk::PassContext;
 use crate::estimation::effect_columns::EffectParameter;
 use crate::estimation::priors::{prior_sigma, Priors};
-use crate::model::{ErrorParameters, N_PARAMS, PARAMETERS};
+use crate::model::{ErrorParameters, Grade, N_PARAMS, PARAMETERS};
 
 /// A parameter is reported poorly observable when its σ after the run is
 /// above this fraction of its prior: the run has not halved the prior's
@@ -79,12 +79,13 @@ pub(super) fn effect_table(
     states: &[EffectParameter],
     effects: &[f64],
     last: &Pass,
+    grade: Grade,
     findings: &mut Findings,
 ) -> BTreeMap<String, ParameterEstimate> {
     let mut table = BTreeMap::new();
     for (j, state) in states.iter().enumerate() {
         let sigma = last.sigma[N_PARAMS + j];
-        let prior_si = state.prior_sigma() * state.si_per_unit();
+        let prior_si = state.prior_sigma(grade) * state.si_per_unit();
         findings.observability(&state.name(), sigma, prior_si);
         if is_thermal(*state) {
             continue;

@@ -29,6 +29,7 @@ use crate::calib::plan::PlanInput;
 use crate::calib::Effect;
 use crate::diagnose::{thresholds_before_data, DiagnoseOptions};
 use crate::estimation::effect_columns::EffectParameter;
+use crate::model::Grade;
 use crate::sim::Scheme;
 
 /// How far below the requested size the predicted threshold must lie.
@@ -168,6 +169,8 @@ pub struct Detection {
     pub states: Vec<EffectParameter>,
     /// The selection's naming bar (`DiagnoseOptions::bic_threshold`).
     pub bic_threshold: f64,
+    /// The unit's grade, which sizes the states' priors.
+    pub grade: Grade,
     /// Per goal, what the objective's threshold is multiplied by before
     /// it is held against the goal: 1, or larger where the workflow's
     /// check named less than the objective promised.
@@ -175,7 +178,7 @@ pub struct Detection {
 }
 
 impl Detection {
-    pub fn new(goals: &[DetectGoal], bic_threshold: f64) -> Self {
+    pub fn new(goals: &[DetectGoal], bic_threshold: f64, grade: Grade) -> Self {
         let mut effects: Vec<Effect> = goals.iter().map(|g| g.effect).collect();
         effects.sort();
         effects.dedup();
@@ -183,6 +186,7 @@ impl Detection {
             goals: goals.to_vec(),
             states: effects.into_iter().flat_map(Effect::states).collect(),
             bic_threshold,
+            grade,
             correction: vec![1.0; goals.len()],
         }
     }
@@ -249,7 +253,7 @@ impl Detection {
         let inv = eig.eigenvalues.map(|l| 1.0 / l.max(largest * f64::EPSILON));
         let mut f = &eig.eigenvectors * DMatrix::from_diagonal(&inv) * eig.eigenvectors.transpose();
         for (i, &s) in a.iter().enumerate() {
-            f[(i, i)] -= self.states[s].prior_sigma().powi(-2);
+            f[(i, i)] -= self.states[s].prior_sigma(self.grade).powi(-2);
         }
         f
     }

@@ -173,7 +173,11 @@ pub fn scheme_information(
     let c_b_n0: Matrix3<f64> = rotvec_to_dcm(&phi);
     let traj = Trajectory::new(scheme, &c_b_n0, &s.site).map_err(CalibError::Unusable)?;
     let mut scale = prior_sigma(s.priors);
-    scale.extend(s.effects.iter().map(|p| p.prior_sigma() * p.si_per_unit()));
+    scale.extend(
+        s.effects
+            .iter()
+            .map(|p| p.prior_sigma(s.priors.grade) * p.si_per_unit()),
+    );
     let mut kf = SystematicFilter::new(
         error_dynamics(&s.site.omega_ie_n(), &s.site.f_rest_n()),
         &initial_navigation_covariance(&s.site, s.priors),

@@ -195,9 +195,7 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
         zupt_sigma_mps: opts.zupt_sigma_mps,
         priors: Priors {
             scale: opts.prior_scale,
-            grade: opts.grade.unwrap_or_else(|| {
-                Grade::of_gyro_noise(req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H)
-            }),
+            grade: grade_of(req),
             start_heading_sigma: None,
         },
         initial_attitude_deg: req.initial_attitude_deg,
@@ -208,9 +206,18 @@ pub fn objective_settings(req: &DesignRequest) -> ObjectiveSettings {
     }
 }
 
+/// The grade a request's unit is calibrated at: the estimator's, else
+/// the one its gyro noise names.
+fn grade_of(req: &DesignRequest) -> Grade {
+    EstimateOptions::default()
+        .grade
+        .unwrap_or_else(|| Grade::of_gyro_noise(req.noise.gyro_arw_deg_rt_h * DEG_PER_RT_H))
+}
+
 /// The request's `detect` goals as the objective scores them.
 fn detection(req: &DesignRequest) -> Option<Detection> {
-    (!req.detect.is_empty()).then(|| Detection::new(&req.detect, detect::naming_bar()))
+    (!req.detect.is_empty())
+        .then(|| Detection::new(&req.detect, detect::naming_bar(), grade_of(req)))
 }
 
 fn validate(req: &DesignRequest, target: &Target) -> Result<(), DesignError> {
