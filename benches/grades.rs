@@ -12,15 +12,24 @@
 //! heading (x east, ±3°) instead of anywhere; `--white` keeps only the
 //! white noise (ARW, VRW) of each seed, `--no-pulses` all but its pulses;
 //! `--known-noise` gives the filter the simulated noise model.
+//!
+//! `--g-sensitivity G` gives each unit a gyro g-sensitivity (SPEC §3), its
+//! nine terms drawn uniform in ±G deg/h/g (stream 9 of the seed; a MEMS
+//! gyro's are tenths of a deg/s per g: imu_tk's Xsens 100–560 deg/h/g);
+//! `--carry-g` calibrates with it as states (`base-24+gyro_g_sensitivity`)
+//! and scores its six cross terms as an eighth family.
 
+use rand::{Rng, SeedableRng};
 use sinscal_core::calib::sources::calibrate_in_memory;
-use sinscal_core::calib::{CalibrationResult, EstimateOptions, NoiseDensity};
+use sinscal_core::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions, NoiseDensity};
 use sinscal_core::model::{Grade, Group, PARAMETERS};
 use sinscal_core::sim::grade_runs::{hand_run, StartHeading};
 use sinscal_core::sim::{simulate, BiasMean, Noise, SimConfig};
 
-/// The number of parameter families (`Group::ALL`).
+/// The number of parameter families (`Group::ALL`), and the
+/// g-sensitivity's row after them.
 const FAMILIES: usize = 7;
+const G_ROW: usize = FAMILIES;
 
 /// The bench's command line, read once (see the file's doc).
 struct Flags {
@@ -37,6 +46,10 @@ struct Flags {
     known_noise: bool,
     /// Only this seed.
     only: Option<u64>,
+    /// Bound of the drawn g-sensitivity terms, deg/h/g.
+    g_sensitivity: Option<f64>,
+    /// Calibrate with the g-sensitivity as states.
+    carry_g: bool,
 }
 
 impl Flags {
@@ -55,7 +68,7 @@ impl Flags {
             seeds: args
                 .iter()
                 .skip(1)
-                .take_while(|a| *a != "--only")
+                .take_while(|a| *a != "--only" && *a != "--g-sensitivity")
                 .find_map(|a| a.parse().ok())
                 .unwrap_or(20),
             grades: grade.map_or(vec![Grade::Tactical, Grade::Consumer], |g| vec![g]),
@@ -69,6 +82,12 @@ impl Flags {
                 .position(|a| a == "--only")
                 .and_then(|i| args.get(i + 1))
                 .and_then(|v| v.parse().ok()),
+            g_sensitivity: args
+                .iter()
+                .position(|a| a == "--g-sensitivity")
+                .and_then(|i| args.get(i + 1))
+                .and_then(|v| v.parse().ok()),
+            carry_g: args.iter().any(|a| a == "--carry-g"),
         }
     }
 }
@@ -93,7 +112,31 @@ fn sim_config(grade: Grade, seed: u64, flags: &Flags) -> SimConfig {
         noise.gyro_quantum_arcsec = 0.0;
         noise.accel_quantum_mps = 0.0;
     }
+    if let Some(bound) = flags.g_sensitivity {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(9);
+        cfg.effects.gyro_g_sensitivity =
+            Some(std::array::from_fn(|_| rng.gen_range(-bound..=bound)));
+    }
     cfg
+}
+
+/// err/σ of each g-sensitivity term the calibration carried.
+fn g_sensitivity_z(cfg: &SimConfig, res: &CalibrationResult) -> Vec<f64> {
+    let truth = cfg.effects.gyro_g_sensitivity.unwrap_or_default();
+    let axes = ["x", "y", "z"];
+    // The diagonal terms keep their navigation prior below navigation
+    // grade (CONTRACT, "Units of every grade"): held near zero, they are
+    // not scored.
+    (0..9)
+        .filter(|k| k / 3 != k % 3)
+        .filter_map(|k| {
+            let name = format!("gyro_g_sensitivity_{}{}", axes[k / 3], axes[k % 3]);
+            res.effects
+                .get(&name)
+                .map(|p| (p.value - truth[k]) / p.sigma)
+        })
+        .collect()
 }
 
 /// err/σ of every parameter, a bias against its run mean.
@@ -112,9 +155,9 @@ fn z_scores(cfg: &SimConfig, res: &CalibrationResult, mean: Option<&BiasMean>) -
 /// The sums and extremes over one grade's seeds.
 #[derive(Default)]
 struct Tally {
-    z2: [f64; FAMILIES],
-    count: [usize; FAMILIES],
-    worst: [f64; FAMILIES],
+    z2: [f64; FAMILIES + 1],
+    count: [usize; FAMILIES + 1],
+    worst: [f64; FAMILIES + 1],
     calibrated: usize,
     failed: Vec<String>,
     inadequate: usize,
@@ -122,9 +165,10 @@ struct Tally {
 }
 
 impl Tally {
-    fn add(&mut self, z: &[f64]) {
-        for (info, z) in PARAMETERS.iter().zip(z) {
-            let k = info.group.index();
+    fn add(&mut self, z: &[f64], z_g: &[f64]) {
+        let rows = PARAMETERS.iter().map(|info| info.group.index());
+        let rows = rows.chain(std::iter::repeat(G_ROW));
+        for (k, z) in rows.zip(z.iter().chain(z_g)) {
             self.z2[k] += z * z;
             self.count[k] += 1;
             self.worst[k] = self.worst[k].max(z.abs());
@@ -139,11 +183,13 @@ impl Tally {
         for f in &self.failed {
             println!("  failed: {f}");
         }
-        for (k, g) in Group::ALL.iter().enumerate() {
+        let names = Group::ALL.iter().map(|g| format!("{g:?}"));
+        let names = names.chain(std::iter::once("GSensitivity".to_string()));
+        for (k, name) in names.enumerate().filter(|&(k, _)| self.count[k] > 0) {
             println!(
                 "  {:<14} RMS err/σ {:5.2}   max |err/σ| {:5.2}",
-                format!("{g:?}"),
-                (self.z2[k] / self.count[k].max(1) as f64).sqrt(),
+                name,
+                (self.z2[k] / self.count[k] as f64).sqrt(),
                 self.worst[k]
             );
         }
@@ -161,6 +207,11 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
         let opts = EstimateOptions {
             cross_check: false,
             noise: flags.known_noise.then(|| NoiseDensity::from(&cfg.noise)),
+            model: if flags.carry_g {
+                ErrorModel::with(&[Effect::GyroGSensitivity])
+            } else {
+                ErrorModel::base()
+            },
             ..EstimateOptions::default()
         };
         let mut sim = simulate(&cfg).expect("valid");
@@ -179,6 +230,7 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
         let given = res.grade.map_or("none".into(), |g| g.to_string());
         *tally.graded.entry(given.clone()).or_default() += 1;
         let z = z_scores(&cfg, &res, mean.as_ref());
+        let z_g = g_sensitivity_z(&cfg, &res);
         if flags.per_seed {
             let mut line = format!(
                 "{grade} seed {seed:>3}: heading {:.0}°, graded {given}, check {} χ² {:.0}/{:.0} max|z| {:.1};",
@@ -201,9 +253,12 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
             for (info, z) in PARAMETERS.iter().zip(&z).filter(|(_, z)| z.abs() > 3.0) {
                 line.push_str(&format!(" {} {z:.1}", info.name));
             }
+            for (k, z) in z_g.iter().enumerate().filter(|(_, z)| z.abs() > 3.0) {
+                line.push_str(&format!(" g-sensitivity term {k} {z:.1}"));
+            }
             println!("{line}");
         }
-        tally.add(&z);
+        tally.add(&z, &z_g);
     }
     tally
 }
