@@ -15,8 +15,10 @@ pub struct DetectOptions {
     /// Earth rate (0.004 deg/s) plus its bias, the same in every dwell up to
     /// the Earth rate's turn with the unit; the rest rate is measured on the
     /// run's first dwell, so this bound does not depend on the bias (a MEMS
-    /// gyro's 0.3 deg/s reads steadily too). It is the only sign of a turn
-    /// about the vertical, which leaves f^b unchanged.
+    /// gyro's 0.3 deg/s reads steadily too). A block that would extend a
+    /// still stretch is held to that stretch's own rate instead, which a
+    /// MEMS gyro's g-sensitivity moves with the orientation. It is the only
+    /// sign of a turn about the vertical, which leaves f^b unchanged.
     pub rate_threshold_dps: f64,
     /// Largest mean rate a block of the run's first still stretch may have,
     /// deg/s: before any rest rate is known, a block is compared with this
