@@ -10,6 +10,8 @@ use sinscal_core::io::meta::{write_json, RunMetadata};
 use sinscal_core::model::Grade;
 use sinscal_core::pipeline::calibrate_file;
 
+use super::noise_file::read_noise_file;
+
 #[derive(clap::Args)]
 pub struct CalibrateArgs {
     /// The run's data file (CSV, gzip CSV or f64le).
@@ -39,9 +41,16 @@ pub struct CalibrateArgs {
     /// run's gyro noise names.
     #[arg(long, value_enum)]
     grade: Option<Grade>,
+    /// The unit's noise model, known beforehand (e.g. from a long static
+    /// recording): a JSON object with the truth file's `noise` terms
+    /// (SPEC §2, §2a), used as given; default: measured from the run and
+    /// fitted to it.
+    #[arg(long)]
+    noise: Option<PathBuf>,
 }
 
 pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> {
+    let noise = a.noise.as_deref().map(read_noise_file).transpose()?;
     let opts = EstimateOptions {
         estimator: a.estimator,
         cross_check: !a.no_cross_check,
@@ -51,6 +60,7 @@ pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> 
             a.model
         },
         grade: a.grade,
+        noise,
         ..EstimateOptions::default()
     };
     let cancel = AtomicBool::new(false);

@@ -4,6 +4,7 @@ mod calibrate;
 mod compensate;
 mod import;
 mod noise;
+mod noise_file;
 mod sensor_noise;
 mod simulate_sensors;
 mod simulate_thermal;

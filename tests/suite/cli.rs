@@ -696,3 +696,66 @@ fn calibrate_keeps_the_run_s_temperature() {
         "{err}"
     );
 }
+
+/// A unit whose noise is known beforehand (characterised once) is
+/// calibrated under that model as given, term for term; a noise file with
+/// a term the estimator does not have is refused naming it.
+#[test]
+fn calibrate_takes_a_units_known_noise_model() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    stdout_of(
+        sinscal()
+            .args(["simulate", "--scheme", "ten-position", "--dwell", "60"])
+            .args(["--params", "paper", "--seed", "5", "--rate", "20"])
+            .args(["--real-sensor", "--format", "f64le", "--out"])
+            .arg(&out),
+    );
+    let noise = dir.path().join("noise.json");
+    std::fs::write(
+        &noise,
+        r#"{"gyro_arw_deg_rt_h": 0.0003, "accel_vrw_ug_rt_hz": 5,
+            "gyro_bias_instability_deg_h": 0.002, "accel_bias_instability_ug": 3,
+            "gyro_rrw_deg_h_rt_h": 0.0003, "accel_rw_ug_rt_h": 3,
+            "gyro_quantum_arcsec": 1, "accel_quantum_mps": 1e-4}"#,
+    )
+    .unwrap();
+    let result_path = dir.path().join("result.json");
+    stdout_of(
+        sinscal()
+            .arg("calibrate")
+            .arg(out.join("run.bin"))
+            .arg("--noise")
+            .arg(&noise)
+            .arg("--out")
+            .arg(&result_path),
+    );
+    let result: serde_json::Value = read_json(&result_path).unwrap();
+    let model = &result["noise_model"];
+    assert_eq!(model["source"], "given", "{model}");
+    for (term, value) in [
+        ("gyro_bias_instability_deg_h", 0.002),
+        ("accel_rw_ug_rt_h", 3.0),
+        ("gyro_quantum_arcsec", 1.0),
+    ] {
+        for axis in model[term].as_array().unwrap_or_else(|| panic!("{model}")) {
+            let v = axis.as_f64().unwrap();
+            assert!((v / value - 1.0).abs() < 1e-9, "{term}: {v}");
+        }
+    }
+    std::fs::write(
+        &noise,
+        r#"{"gyro_arw_deg_rt_h": 0.0003, "accel_vrw_ug_rt_hz": 5, "gyro_bias_instabilty_deg_h": 0.002}"#,
+    )
+    .unwrap();
+    let refused = sinscal()
+        .arg("calibrate")
+        .arg(out.join("run.bin"))
+        .arg("--noise")
+        .arg(&noise)
+        .output()
+        .unwrap();
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(stderr.contains("gyro_bias_instabilty_deg_h"), "{stderr}");
+}

@@ -53,7 +53,7 @@ fn bias_drift_is_named() {
         }),
         ..Effects::none()
     };
-    let cfg = config(nine_plus_nine(600.0), effects, 6);
+    let cfg = config(nine_plus_nine(300.0), effects, 6);
     assert_found(&run(&cfg), &cfg, &["bias_drift"]);
 }
 
