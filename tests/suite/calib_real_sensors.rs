@@ -76,34 +76,34 @@ fn largest(z: &[f64]) -> f64 {
 
 #[test]
 fn a_real_unit_gets_honest_sigma_and_a_quiet_check_under_its_own_noise_model() {
-    for seed in [1] {
-        let cfg = config(real_unit(), seed);
-        let res = calibrate_in_memory(&cfg, &options()).unwrap();
-        let noise = res.noise_model.as_ref().expect("the noise model used");
-        assert_eq!(noise.source, NoiseSource::Fitted, "seed {seed}");
-        // The pulses are read exactly from the records.
-        for q in noise.model.gyro_quantum_arcsec {
-            assert!((q - 1.0).abs() < 1e-6, "seed {seed}: gyro quantum {q}");
-        }
-        for q in noise.model.accel_quantum_mps {
-            assert!(
-                (q / 1e-4 - 1.0).abs() < 1e-6,
-                "seed {seed}: accel quantum {q}"
-            );
-        }
-        let check = res.model_check.as_ref().unwrap();
-        assert!(check.adequate, "seed {seed}: {}", check.summary);
-        let z = z_scores(&cfg, &res);
-        let rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
-        // σ neither 50× too large (pulses read as white noise) nor too
-        // small (wander ignored): RMS err/σ over the 24 near 1, none
-        // beyond 4.5.
+    // One seed in CI; twenty: `cargo bench --bench real_sensors -- 20`.
+    let seed = 1;
+    let cfg = config(real_unit(), seed);
+    let res = calibrate_in_memory(&cfg, &options()).unwrap();
+    let noise = res.noise_model.as_ref().expect("the noise model used");
+    assert_eq!(noise.source, NoiseSource::Fitted, "seed {seed}");
+    // The pulses are read exactly from the records.
+    for q in noise.model.gyro_quantum_arcsec {
+        assert!((q - 1.0).abs() < 1e-6, "seed {seed}: gyro quantum {q}");
+    }
+    for q in noise.model.accel_quantum_mps {
         assert!(
-            (0.4..1.8).contains(&rms) && largest(&z) < 4.5,
-            "seed {seed}: RMS err/σ {rms:.2}, largest {:.2}, {z:.2?}",
-            largest(&z)
+            (q / 1e-4 - 1.0).abs() < 1e-6,
+            "seed {seed}: accel quantum {q}"
         );
     }
+    let check = res.model_check.as_ref().unwrap();
+    assert!(check.adequate, "seed {seed}: {}", check.summary);
+    let z = z_scores(&cfg, &res);
+    let rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
+    // σ neither 50× too large (pulses read as white noise) nor too
+    // small (wander ignored): RMS err/σ over the 24 near 1, none
+    // beyond 4.5.
+    assert!(
+        (0.4..1.8).contains(&rms) && largest(&z) < 4.5,
+        "seed {seed}: RMS err/σ {rms:.2}, largest {:.2}, {z:.2?}",
+        largest(&z)
+    );
 }
 
 /// The same unit under white noise alone (the estimator's model before
