@@ -438,19 +438,21 @@ pub(crate) fn walk(
         let c_mid = c_prev * (Matrix3::identity() + half + half * half * 0.5);
         c_prev = c_now;
         let tau = r.t - 0.5 * dt - t_ws;
-        base_columns(
-            &c_mid,
-            &Vector3::from(r.dtheta),
-            &Vector3::from(r.dv),
-            dt,
-            |i, rows, col| sens.add_column(i, rows, &col, tau),
-        );
-        if let Some(m) = &motion {
-            for (j, &p) in effects.states.iter().enumerate() {
-                let (rows, col_b) = effect_column(p, m);
-                sens.add_column(N_PARAMS + j, rows, &(c_mid * col_b), tau);
+        sens.add_record(tau, |cols| {
+            base_columns(
+                &c_mid,
+                &Vector3::from(r.dtheta),
+                &Vector3::from(r.dv),
+                dt,
+                |i, rows, col| cols.set(i, rows, &col),
+            );
+            if let Some(m) = &motion {
+                for (j, &p) in effects.states.iter().enumerate() {
+                    let (rows, col_b) = effect_column(p, m);
+                    cols.set(N_PARAMS + j, rows, &(c_mid * col_b));
+                }
             }
-        }
+        });
         around.advance()?;
         if extra {
             continue;

@@ -120,31 +120,33 @@ fn add_step(
     let kin = &around[NEIGHBOURS];
     let dtheta = kin.omega_ib_b * h;
     let dv = kin.f_b * h;
-    base_columns(&kin.c_b_n, &dtheta, &dv, h, |i, rows, col| {
-        kf.add_column(i, rows, &col, tau)
+    kf.add_record(tau, |cols| {
+        base_columns(&kin.c_b_n, &dtheta, &dv, h, |i, rows, col| {
+            cols.set(i, rows, &col)
+        });
+        if effects.is_empty() {
+            return;
+        }
+        // The step and its neighbours as records of an error-free triad,
+        // their increments from the mid-step rates.
+        let motion = RecordMotion {
+            dtheta: std::array::from_fn(|i| around[i].omega_ib_b * h),
+            dv: std::array::from_fn(|i| around[i].f_b * h),
+            dt: h,
+            t_mid,
+            // Planning has no temperature history: thermal states would
+            // see none of their signature.
+            delta_c: 0.0,
+            rate_c_per_s: 0.0,
+            accel_jacobian: Matrix3::identity(),
+            accel_jacobian_inv: Matrix3::identity(),
+            gyro_jacobian_inv: Matrix3::identity(),
+        };
+        for (j, &p) in effects.iter().enumerate() {
+            let (rows, col_b) = effect_column(p, &motion);
+            cols.set(N_PARAMS + j, rows, &(kin.c_b_n * col_b));
+        }
     });
-    if effects.is_empty() {
-        return;
-    }
-    // The step and its neighbours as records of an error-free triad, their
-    // increments from the mid-step rates.
-    let motion = RecordMotion {
-        dtheta: std::array::from_fn(|i| around[i].omega_ib_b * h),
-        dv: std::array::from_fn(|i| around[i].f_b * h),
-        dt: h,
-        t_mid,
-        // Planning has no temperature history: thermal states would see
-        // none of their signature.
-        delta_c: 0.0,
-        rate_c_per_s: 0.0,
-        accel_jacobian: Matrix3::identity(),
-        accel_jacobian_inv: Matrix3::identity(),
-        gyro_jacobian_inv: Matrix3::identity(),
-    };
-    for (j, &p) in effects.iter().enumerate() {
-        let (rows, col_b) = effect_column(p, &motion);
-        kf.add_column(N_PARAMS + j, rows, &(kin.c_b_n * col_b), tau);
-    }
 }
 
 /// A resting window of length `t` starting `t0` from the scheme's start:

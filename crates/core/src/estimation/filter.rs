@@ -20,8 +20,8 @@
 //!   once per window length;
 //! - parameters enter through B = Σ_j exp(F (T − τ_j)) B_j, accumulated per
 //!   record from the zeroth, first and second time moments of the
-//!   per-record columns B_j (the F³ term is below 1e-7 of the rest for 1 s
-//!   windows);
+//!   per-record columns B_j (`window_columns`; the F³ term is below 1e-7
+//!   of the rest for 1 s windows);
 //! - the white noise's process noise is linear in its density in n, so
 //!   Q(T) is kept per window length as its response to each entry of that
 //!   density, and a unit whose axes differ only costs a 3 × 3 rotation;
@@ -41,8 +41,8 @@ pub use super::error_dynamics::{error_dynamics, process_noise, transition};
 pub use super::nav_errors::NAV;
 use super::nav_errors::{NavErrors, WindowModel};
 use super::noise_model::NoiseModel;
-use super::sensitivity::Rows;
 use super::wander::wander_components;
+use super::window_columns::{RecordColumns, WindowColumns};
 use crate::model::params::Group;
 use crate::model::N_PARAMS;
 
@@ -91,10 +91,8 @@ pub struct SystematicFilter {
     /// The parameters are taken as known (their effect already removed
     /// from the observations): only the bias-free part is filtered.
     parameters_known: bool,
-    // Window accumulators: Σ B_j, Σ τ_j B_j, Σ τ_j² B_j.
-    s0: DMatrix<f64>,
-    s1: DMatrix<f64>,
-    s2: DMatrix<f64>,
+    /// The open window's record columns.
+    columns: WindowColumns,
 }
 
 impl SystematicFilter {
@@ -133,9 +131,7 @@ impl SystematicFilter {
             keep_input: false,
             last_input: None,
             parameters_known: false,
-            s0: DMatrix::zeros(NAV, n_p),
-            s1: DMatrix::zeros(NAV, n_p),
-            s2: DMatrix::zeros(NAV, n_p),
+            columns: WindowColumns::new(n_p),
         }
     }
 
@@ -143,33 +139,16 @@ impl SystematicFilter {
         self.n_p
     }
 
-    /// Adds one parameter column of the current record: `col` (SI per
-    /// unit of parameter) drives `rows`; `tau` is the record's mid time
-    /// from the window start.
-    #[inline]
-    pub fn add_column(&mut self, param: usize, rows: Rows, col: &Vector3<f64>, tau: f64) {
-        let r0 = match rows {
-            Rows::Attitude => 0,
-            Rows::Velocity => 3,
-        };
-        let v = col * self.scale[param];
-        let terms = [
-            (&mut self.s0, v),
-            (&mut self.s1, v * tau),
-            (&mut self.s2, v * (tau * tau)),
-        ];
-        for (s, add) in terms {
-            // Rows r0..r0 + 3 of column `param`, one bounds check (it runs
-            // 24 times a record).
-            let at = param * NAV + r0;
-            for (x, a) in s.as_mut_slice()[at..at + 3].iter_mut().zip(add.iter()) {
-                *x += a;
-            }
-        }
+    /// Adds one record's parameter columns, which `fill` sets
+    /// (`RecordColumns::set`: SI per unit of parameter, on the rows each
+    /// drives); `tau` is the record's mid time from the window start.
+    #[inline(always)]
+    pub fn add_record(&mut self, tau: f64, fill: impl FnOnce(&mut RecordColumns)) {
+        self.columns.add_record(tau, fill);
     }
 
     /// Propagates over a window of length `t` whose records were added
-    /// with [`SystematicFilter::add_column`], and clears the accumulators;
+    /// with [`SystematicFilter::add_record`], and clears the accumulators;
     /// `c_b_n` is the attitude at the window's end (the white noise's
     /// density in n when the axes differ).
     pub fn propagate(&mut self, t: f64, c_b_n: &Matrix3<f64>) {
@@ -181,20 +160,12 @@ impl SystematicFilter {
     }
 
     /// The window's parameter input B (6 × n_p, scaled) from the records'
-    /// columns, clearing the accumulators:
-    /// B = S0 + F (T S0 − S1) + ½ F² (T² S0 − 2T S1 + S2).
+    /// columns, clearing them.
     fn window_input(&mut self, t: f64) -> DMatrix<f64> {
         if self.n_p == 0 {
             return DMatrix::zeros(NAV, 0);
         }
-        let fm = DMatrix::from_column_slice(NAV, NAV, self.f.as_slice());
-        let first = &self.s0 * t - &self.s1;
-        let second = &self.s0 * (t * t) - &self.s1 * (2.0 * t) + &self.s2;
-        let b = &self.s0 + &fm * first + (&fm * &fm) * second * 0.5;
-        self.s0.fill(0.0);
-        self.s1.fill(0.0);
-        self.s2.fill(0.0);
-        b
+        self.columns.take_input(&self.f, t, &self.scale)
     }
 
     /// Propagates over a window of length `t` whose parameter input B is
@@ -505,6 +476,7 @@ impl SystematicFilter {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::estimation::sensitivity::Rows;
 
     /// The filter on data drawn from its own linear model: every
     /// parameter's error over many trials must be as large as its σ says,
@@ -554,17 +526,19 @@ mod tests {
                 // 300 s, like a multi-position scheme.
                 let phase = k / 300;
                 let mut b = Matrix6xX::zeros(n_p);
-                for j in 0..n_p {
-                    let ang = (phase * 7 + j * 3) as f64;
-                    let col = Vector3::new(ang.sin(), ang.cos(), (0.3 * ang).sin()) * 1e-2;
-                    let (rows, r0) = if j % 2 == 0 {
-                        (Rows::Attitude, 0)
-                    } else {
-                        (Rows::Velocity, 3)
-                    };
-                    kf.add_column(j, rows, &col, 0.5 * window);
-                    b.fixed_view_mut::<3, 1>(r0, j).copy_from(&col);
-                }
+                kf.add_record(0.5 * window, |cols| {
+                    for j in 0..n_p {
+                        let ang = (phase * 7 + j * 3) as f64;
+                        let col = Vector3::new(ang.sin(), ang.cos(), (0.3 * ang).sin()) * 1e-2;
+                        let (rows, r0) = if j % 2 == 0 {
+                            (Rows::Attitude, 0)
+                        } else {
+                            (Rows::Velocity, 3)
+                        };
+                        cols.set(j, rows, &col);
+                        b.fixed_view_mut::<3, 1>(r0, j).copy_from(&col);
+                    }
+                });
                 // The same single mid-window record the filter expands.
                 let fm = nalgebra::DMatrix::from_column_slice(6, 6, f.as_slice());
                 let bd = nalgebra::DMatrix::from_column_slice(6, n_p, b.as_slice());

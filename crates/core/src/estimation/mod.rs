@@ -1,11 +1,11 @@
 //! The estimation toolkit calibration, diagnosis and design share as
 //! peers: the navigation-error dynamics and the systematic filter over
-//! them (`filter`, `error_dynamics`, `nav_errors`), the noise model it
-//! runs under (`noise_model`, `wander`: wandering biases as states), the
-//! parameters' sensitivity columns (`sensitivity`), normal equations
-//! (`normal`), priors (`priors`) and the coarse alignment at rest
-//! (`align`). Nothing here reads a run or knows a result: `calib` walks
-//! runs through it and reports.
+//! them (`filter`, `error_dynamics`, `nav_errors`, `window_columns`), the
+//! noise model it runs under (`noise_model`, `wander`: wandering biases
+//! as states), the parameters' sensitivity columns (`sensitivity`),
+//! normal equations (`normal`), priors (`priors`) and the coarse
+//! alignment at rest (`align`). Nothing here reads a run or knows a
+//! result: `calib` walks runs through it and reports.
 
 pub(crate) mod align;
 pub(crate) mod effect_columns;
@@ -19,6 +19,7 @@ pub(crate) mod priors;
 pub mod quantile;
 pub(crate) mod sensitivity;
 pub(crate) mod wander;
+pub(crate) mod window_columns;
 
 pub use error::EstimationError;
 pub use noise_model::{NoiseDensity, NoiseModel, TriadNoise};

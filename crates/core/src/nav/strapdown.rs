@@ -47,6 +47,10 @@ pub struct Strapdown {
     /// Previous record's increments, for coning and sculling; `None` before
     /// the first record.
     prev: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// The navigation frame's turn exp(−[ζ×]) over the last interval met
+    /// and that interval: evenly stamped records reuse it, saving two
+    /// sines a record.
+    frame_turn: (f64, UnitQuaternion<f64>),
 }
 
 impl Strapdown {
@@ -62,6 +66,7 @@ impl Strapdown {
             g_n: site.g_n(),
             omega_ie_n: site.omega_ie_n(),
             prev: None,
+            frame_turn: (0.0, UnitQuaternion::identity()),
         }
     }
 
@@ -111,11 +116,19 @@ impl Strapdown {
         self.r_n += 0.5 * (v_prev + self.v_n) * dt;
 
         let phi = dtheta + dtheta_prev.cross(&dtheta) / 12.0;
-        self.q_b_n = rotvec_to_quat(&(-zeta)) * c_prev * rotvec_to_quat(&phi);
+        self.q_b_n = self.frame_turn_over(dt) * c_prev * rotvec_to_quat(&phi);
         self.q_b_n.renormalize();
 
         self.prev = Some((dtheta, dv));
         self.t = rec.t;
+    }
+
+    /// exp(−[ζ×]), ζ = ω_ie^n Δt: the navigation frame's turn over `dt`.
+    fn frame_turn_over(&mut self, dt: f64) -> UnitQuaternion<f64> {
+        if self.frame_turn.0 != dt {
+            self.frame_turn = (dt, rotvec_to_quat(&(-self.omega_ie_n * dt)));
+        }
+        self.frame_turn.1
     }
 
     /// Applies a feedback correction: the attitude error φ (in n, with
