@@ -481,7 +481,17 @@ fn main() {
         if let Some(outcome) = calibrate_seed(seed, &flags) {
             tally.add(&outcome);
             if flags.per_seed {
-                println!("{}", outcome.line);
+                let worst = outcome.scores.iter().map(|s| s.table1).fold(0.0, f64::max);
+                let plain = outcome
+                    .unquantized
+                    .map(|(_, w)| {
+                        format!(
+                            " (unquantized {:.2})",
+                            w.iter().fold(0.0, |a: f64, &b| a.max(b))
+                        )
+                    })
+                    .unwrap_or_default();
+                println!("{} worst |err| / Table 1 {worst:.2}{plain}", outcome.line);
             }
         }
     }
