@@ -8,7 +8,7 @@
 //! the velocity curve within minutes. So the terms are chosen to maximise
 //! the likelihood of the pass's innovations, the parameters integrated
 //! out (`SystematicFilter::log_likelihood`), over the pass replayed from
-//! its trace (`replay`), starting from what the Allan curves said.
+//! its trace (`replay`, prepared once for every evaluation), starting from what the Allan curves said.
 //!
 //! The search is a Nelder–Mead simplex in the logarithm of each term,
 //! which follows the ridge that correlated terms make (a gyro's white
@@ -175,9 +175,10 @@ pub(crate) fn fit_noise(
         start,
         free: free.to_vec(),
     };
+    let filter = |m: &NoiseModel| ctx.filter_for(m, ctx.opts.zupt_sigma_mps, effect_scale);
+    let replay = trace.profile(filter(&start), DECIMATION)?;
     let evaluate = |ln: &[f64]| -> Result<f64, CalibError> {
-        let kf = ctx.filter_for(&space.model_at(ln), ctx.opts.zupt_sigma_mps, effect_scale);
-        trace.profile_log_likelihood(kf, DECIMATION)
+        replay.log_likelihood(filter(&space.model_at(ln)))
     };
     // The white densities alone first, every wander term at zero: the
     // model without wander that the full one must beat.

@@ -14,10 +14,10 @@
 //! model. 11 700 windows of a 3.2 h run with the base model keep about
 //! 8 MB.
 
-use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 
 use super::error::CalibError;
-use crate::estimation::filter::{SystematicFilter, FORGOTTEN_VELOCITY_SIGMA_MPS, NAV};
+use crate::estimation::filter::{SystematicFilter, WindowModel, FORGOTTEN_VELOCITY_SIGMA_MPS, NAV};
 
 /// One window as the filter saw it.
 struct WindowTrace {
@@ -126,24 +126,23 @@ impl PassTrace {
         self.pass_log_likelihood
     }
 
-    /// The log-likelihood of the pass's zero-velocity observations under
-    /// `kf`'s noise model (a fresh filter of the pass's shape), the
-    /// parameters held at the pass's estimate: their effect, carried by
-    /// the navigation errors' transition, is taken out of the velocities
-    /// and `kf` filters only the navigation errors and the wander. Against
-    /// the likelihood with the parameters integrated out this drops 24
-    /// degrees of freedom of tens of thousands, and halves the cost.
-    pub fn profile_log_likelihood(
+    /// The pass prepared for [`ProfileReplay::log_likelihood`]: every
+    /// `decimation` windows merged into one, the parameters held at the
+    /// pass's estimate and their effect taken out of the velocities, and
+    /// each merged window's matrices made once. `kf` is a fresh filter of
+    /// the pass's shape (any noise model: what is kept does not depend on
+    /// it).
+    pub fn profile(
         &self,
-        kf: SystematicFilter,
+        mut kf: SystematicFilter,
         decimation: usize,
-    ) -> Result<f64, CalibError> {
-        let mut kf = kf.with_parameters_known();
+    ) -> Result<ProfileReplay, CalibError> {
         let p = self
             .estimate
             .as_ref()
             .ok_or_else(|| CalibError::Numerical("the traced pass left no estimate".into()))?;
         let mut effect = Vector6::zeros();
+        let mut groups = Vec::with_capacity(self.windows.len() / decimation.max(1) + 1);
         for group in self.windows.chunks(decimation.max(1)) {
             // Windows merged: B of the whole is each one's carried on by
             // the transitions after it; only the last update is kept.
@@ -159,14 +158,115 @@ impl PassTrace {
             let bp = &b * p;
             effect =
                 kf.navigation_transition(t) * effect + Vector6::from_column_slice(bp.as_slice());
-            kf.propagate_input(t, &last.c_b_n, &b);
-            if group.iter().any(|w| w.forgot_velocity) {
-                kf.forget_velocity(FORGOTTEN_VELOCITY_SIGMA_MPS);
+            let forgot_velocity = group.iter().any(|w| w.forgot_velocity);
+            if forgot_velocity {
                 effect.fixed_rows_mut::<3>(3).fill(0.0);
             }
-            if let Some(v) = &last.zupt_v_n {
-                let v = v - Vector3::new(effect[3], effect[4], effect[5]);
-                kf.update_zero_velocity(&v, &last.c_b_n)?;
+            groups.push(ReplayWindow::new(
+                &mut kf,
+                t,
+                &last.c_b_n,
+                &b,
+                forgot_velocity,
+                last.zupt_v_n
+                    .map(|v| v - Vector3::new(effect[3], effect[4], effect[5])),
+            ));
+        }
+        Ok(ProfileReplay { windows: groups })
+    }
+}
+
+/// A traced pass prepared for likelihoods with the parameters known
+/// ([`PassTrace::profile`]): what each merged window does to the
+/// navigation errors, which no noise model changes, kept as matrices.
+pub(crate) struct ProfileReplay {
+    windows: Vec<ReplayWindow>,
+}
+
+/// One merged window of a [`ProfileReplay`].
+struct ReplayWindow {
+    t: f64,
+    c_b_n: Matrix3<f64>,
+    phi: Matrix6<f64>,
+    /// The white noise's Q(T) for a unit density on each body axis: gyro
+    /// x, y, z, then accelerometer x, y, z (Q is linear in the densities,
+    /// and a noise model's white noise is diagonal in the body).
+    q_per_axis: [Matrix6<f64>; 6],
+    /// How a constant body bias moved the navigation errors over the
+    /// window (the wander acts through it).
+    coupling: Matrix6<f64>,
+    forgot_velocity: bool,
+    /// The velocity at a zero-velocity window's end, open loop and the
+    /// parameters' effect taken out.
+    zupt_v_n: Option<Vector3<f64>>,
+}
+
+impl ReplayWindow {
+    fn new(
+        kf: &mut SystematicFilter,
+        t: f64,
+        c_b_n: &Matrix3<f64>,
+        b: &DMatrix<f64>,
+        forgot_velocity: bool,
+        zupt_v_n: Option<Vector3<f64>>,
+    ) -> Self {
+        let mut phi = Matrix6::zeros();
+        let q_per_axis = std::array::from_fn(|axis| {
+            // A unit density on one body axis, in n.
+            let u = c_b_n.column(axis % 3);
+            let unit_n = u * u.transpose();
+            let zero = Matrix3::zeros();
+            let (p, q) = if axis < 3 {
+                kf.window_matrices(t, &unit_n, &zero)
+            } else {
+                kf.window_matrices(t, &zero, &unit_n)
+            };
+            phi = p;
+            q
+        });
+        ReplayWindow {
+            t,
+            c_b_n: *c_b_n,
+            phi,
+            q_per_axis,
+            coupling: kf.bias_columns(b),
+            forgot_velocity,
+            zupt_v_n,
+        }
+    }
+}
+
+impl ProfileReplay {
+    /// The log-likelihood of the pass's zero-velocity observations under
+    /// `kf`'s noise model (a fresh filter of the pass's shape), the
+    /// parameters held at the pass's estimate: their effect, carried by
+    /// the navigation errors' transition, is out of the velocities, and
+    /// `kf` filters only the navigation errors and the wander. Against
+    /// the likelihood with the parameters integrated out this drops 24
+    /// degrees of freedom of tens of thousands, and halves the cost.
+    pub fn log_likelihood(&self, kf: SystematicFilter) -> Result<f64, CalibError> {
+        let mut kf = kf.with_parameters_known();
+        let noise = kf.noise();
+        let density: [f64; 6] = std::array::from_fn(|axis| {
+            let triad = if axis < 3 { &noise.gyro } else { &noise.accel };
+            triad.white[axis % 3].powi(2)
+        });
+        for w in &self.windows {
+            let mut q_white = Matrix6::zeros();
+            for (q, d) in w.q_per_axis.iter().zip(density) {
+                q_white += q * d;
+            }
+            kf.propagate_window(&WindowModel {
+                phi: &w.phi,
+                q_white: &q_white,
+                coupling: &w.coupling,
+                t: w.t,
+            });
+            if w.forgot_velocity {
+                kf.forget_velocity(FORGOTTEN_VELOCITY_SIGMA_MPS);
+            }
+            if let Some(v) = &w.zupt_v_n {
+                kf.update_zero_velocity(v, &w.c_b_n)?;
             }
         }
         Ok(kf.log_likelihood()?)
@@ -177,11 +277,15 @@ impl PassTrace {
 mod tests {
     use std::sync::atomic::AtomicBool;
 
+    use nalgebra::{DMatrix, DVector, Vector3, Vector6};
+
+    use super::PassTrace;
     use crate::calib::kf_pass::filter_pass;
     use crate::calib::prescan::scan_run;
     use crate::calib::sources::SliceSource;
     use crate::calib::walk::PassContext;
     use crate::calib::{EstimateOptions, NoiseDensity, RunInfo};
+    use crate::estimation::filter::{SystematicFilter, FORGOTTEN_VELOCITY_SIGMA_MPS, NAV};
     use crate::model::{Effects, ErrorParameters};
     use crate::nav::Site;
     use crate::sim::{simulate, Noise, Scheme, SimConfig};
@@ -232,5 +336,59 @@ mod tests {
             (replayed - own).abs() < 1e-6 * own.abs().max(1.0),
             "replayed {replayed}, pass {own}"
         );
+
+        // The prepared profile replay, under another noise model (axes
+        // unequal, another wander), is the replay written out window by
+        // window.
+        let mut trace = trace;
+        trace.finish(DVector::from_element(trace.n_p, 0.3), 0.0);
+        let mut other = ctx.noise;
+        other.gyro.white = [2.0e-7, 0.5e-7, 1.0e-7];
+        other.accel.white[1] *= 3.0;
+        other.gyro.random_walk = [1e-9; 3];
+        other.accel.instability = [0.0, 5e-5, 1e-5];
+        for decimation in [1, 2, 3] {
+            let filter = || ctx.filter_for(&other, opts.zupt_sigma_mps, &[]);
+            let prepared = trace.profile(filter(), decimation).unwrap();
+            let got = prepared.log_likelihood(filter()).unwrap();
+            let want = profile_written_out(&trace, filter(), decimation);
+            assert!(
+                (got - want).abs() < 1e-9 * want.abs(),
+                "decimation {decimation}: prepared {got}, written out {want}"
+            );
+        }
+    }
+
+    /// The profile likelihood as its definition reads: each merged window's
+    /// B rebuilt, the parameters' effect carried and taken out, the filter
+    /// propagated from the records' input.
+    fn profile_written_out(trace: &PassTrace, kf: SystematicFilter, decimation: usize) -> f64 {
+        let mut kf = kf.with_parameters_known();
+        let p = trace.estimate.as_ref().unwrap();
+        let mut effect = Vector6::zeros();
+        for group in trace.windows.chunks(decimation) {
+            let mut b = DMatrix::zeros(NAV, trace.n_p);
+            let mut t = 0.0;
+            for w in group {
+                let phi = kf.navigation_transition(w.t);
+                let bw = DMatrix::from_iterator(NAV, trace.n_p, w.b.iter().map(|x| *x as f64));
+                b = DMatrix::from_column_slice(NAV, NAV, phi.as_slice()) * b + bw;
+                t += w.t;
+            }
+            let last = group.last().unwrap();
+            let bp = &b * p;
+            effect =
+                kf.navigation_transition(t) * effect + Vector6::from_column_slice(bp.as_slice());
+            kf.propagate_input(t, &last.c_b_n, &b);
+            if group.iter().any(|w| w.forgot_velocity) {
+                kf.forget_velocity(FORGOTTEN_VELOCITY_SIGMA_MPS);
+                effect.fixed_rows_mut::<3>(3).fill(0.0);
+            }
+            if let Some(v) = &last.zupt_v_n {
+                let v = v - Vector3::new(effect[3], effect[4], effect[5]);
+                kf.update_zero_velocity(&v, &last.c_b_n).unwrap();
+            }
+        }
+        kf.log_likelihood().unwrap()
     }
 }

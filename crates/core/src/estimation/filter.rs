@@ -38,8 +38,9 @@ use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3};
 use super::error::EstimationError;
 use super::error_dynamics::WindowCache;
 pub use super::error_dynamics::{error_dynamics, process_noise, transition};
+pub(crate) use super::nav_errors::WindowModel;
 pub use super::nav_errors::NAV;
-use super::nav_errors::{NavErrors, WindowModel};
+use super::nav_errors::{NavErrors, Transition, VelocityUpdate};
 use super::noise_model::NoiseModel;
 use super::wander::wander_components;
 use super::window_columns::{RecordColumns, WindowColumns};
@@ -180,19 +181,45 @@ impl SystematicFilter {
             &self.noise.accel.white_density_n(c_b_n),
         );
         let coupling = self.bias_coupling(b);
-        let window = WindowModel {
+        let transition = self.propagate_window(&WindowModel {
             phi: &phi,
             q_white: &q_white,
             coupling: &coupling,
             t,
-        };
-        let steps = self.nav.wander_steps(t);
-        self.nav.propagate(&window, &steps);
+        });
         if self.n_p > 0 && !self.parameters_known {
-            self.v = self.nav.transition_left(&window, &steps, &self.v);
+            transition.apply_columns(&mut self.v);
             let mut nav_rows = self.v.rows_mut(0, NAV);
             nav_rows += b;
         }
+    }
+
+    /// Propagates the bias-free states over a window given by its
+    /// matrices; returns the window's transition, for the sensitivity.
+    /// What a replay with the parameters known calls directly, with
+    /// matrices it made once (`calib::replay`).
+    pub(crate) fn propagate_window(&mut self, window: &WindowModel) -> Transition {
+        let steps = self.nav.wander_steps(window.t);
+        let transition = self.nav.transition(window, &steps);
+        self.nav.propagate(&transition, window, &steps);
+        transition
+    }
+
+    /// exp(F T) and the white noise's Q(T) over a window of `t` seconds for
+    /// the densities `gyro_n`, `accel_n` (3 × 3, in n).
+    pub(crate) fn window_matrices(
+        &mut self,
+        t: f64,
+        gyro_n: &Matrix3<f64>,
+        accel_n: &Matrix3<f64>,
+    ) -> (Matrix6<f64>, Matrix6<f64>) {
+        let i = self.cached(t);
+        self.cache[i].over(&self.f, t, gyro_n, accel_n)
+    }
+
+    /// The sensor noise model the filter runs under.
+    pub(crate) fn noise(&self) -> &NoiseModel {
+        &self.noise
     }
 
     /// The same filter for observations whose parameter part is already
@@ -260,13 +287,22 @@ impl SystematicFilter {
         Ok(-0.5 * (self.innovation_terms - quad + ln_det_j))
     }
 
-    /// How a constant body bias (gyro x, y, z, accelerometer x, y, z; SI)
-    /// moved the navigation errors over the window: the bias parameters'
-    /// columns of the window's B, unscaled. The wander states act through
-    /// it. Zero when the filter carries no base parameters.
+    /// The window's [`SystematicFilter::bias_columns`] where wander states
+    /// act through them; zero where none do.
     fn bias_coupling(&self, b: &DMatrix<f64>) -> Matrix6<f64> {
+        if self.nav.len() == NAV {
+            return Matrix6::zeros();
+        }
+        self.bias_columns(b)
+    }
+
+    /// The bias parameters' columns of a window's B (scaled), unscaled: how
+    /// a constant body bias (gyro x, y, z, accelerometer x, y, z; SI) moved
+    /// the navigation errors over the window, whether or not the filter
+    /// carries wander. Zero without the base parameters.
+    pub(crate) fn bias_columns(&self, b: &DMatrix<f64>) -> Matrix6<f64> {
         let mut g = Matrix6::zeros();
-        if self.n_p < N_PARAMS || self.nav.len() == NAV {
+        if self.n_p < N_PARAMS {
             return g;
         }
         let first = [Group::GyroBias.first(), Group::AccelBias.first()];
@@ -289,30 +325,25 @@ impl SystematicFilter {
     ) -> Result<Innovation, EstimationError> {
         let r =
             Matrix3::identity() * self.zupt_var + self.noise.accel.quantization_covariance_n(c_b_n);
-        let nav = &mut self.nav;
-        // Bias-free innovation and its covariance.
-        let y_bar = v_n - Vector3::new(nav.x[3], nav.x[4], nav.x[5]);
-        let p_xv = nav.p.columns(3, 3).into_owned(); // n × 3
-        let s = Matrix3::from_fn(|i, j| p_xv[(3 + i, j)]) + r;
-        let chol = s.cholesky().ok_or(EstimationError::NotPositiveDefinite(
-            "navigation innovation covariance",
-        ))?;
-        let s_inv = DMatrix::from_column_slice(3, 3, chol.inverse().as_slice());
-        let s_d = DMatrix::from_column_slice(3, 3, s.as_slice());
-        let k = &p_xv * &s_inv; // n × 3
-        let y_d = DVector::from_column_slice(y_bar.as_slice());
+        // Bias-free innovation, the bias-free states' update and the
+        // likelihood's terms.
+        let x = &self.nav.x;
+        let y_bar = v_n - Vector3::new(x[3], x[4], x[5]);
+        let VelocityUpdate { s, chol, gain: k } =
+            self.nav
+                .update_velocity(&y_bar, &r)
+                .ok_or(EstimationError::NotPositiveDefinite(
+                    "navigation innovation covariance",
+                ))?;
         self.innovation_terms += 2.0 * chol.l().diagonal().iter().map(|d| d.ln()).sum::<f64>()
             + y_bar.dot(&chol.solve(&y_bar));
-        nav.x += &k * &y_d;
-        // Joseph form for H = [0 I 0]: P − K P_v· − P_·v Kᵀ + K S Kᵀ.
-        let k_pv = &k * p_xv.transpose();
-        let p = &nav.p - &k_pv - k_pv.transpose() + &k * s_d * k.transpose();
-        nav.p = (&p + p.transpose()) * 0.5;
 
         // Innovation sensitivity M = H V; information from this update;
         // then the bias-free gain applied to the sensitivity.
         let m = self.v.rows(3, 3).into_owned(); // 3 × n_p
         if self.n_p > 0 && !self.parameters_known {
+            let s_inv = DMatrix::from_column_slice(3, 3, chol.inverse().as_slice());
+            let y_d = DVector::from_column_slice(y_bar.as_slice());
             let mt_sinv = m.transpose() * &s_inv; // n_p × 3
             self.j += &mt_sinv * &m;
             self.h += &mt_sinv * y_d;
@@ -474,100 +505,5 @@ impl SystematicFilter {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::estimation::sensitivity::Rows;
-
-    /// The filter on data drawn from its own linear model: every
-    /// parameter's error over many trials must be as large as its σ says,
-    /// at navigation grade (0.0003 deg/√h, 5 µg/√Hz) and at the noisy end
-    /// of tactical grade (0.003 deg/√h, 50 µg/√Hz).
-    #[test]
-    fn estimates_are_consistent_on_the_linear_model() {
-        for (arw, vrw) in [(8.7e-8, 4.9e-5), (8.7e-7, 4.9e-4)] {
-            check_linear_model_consistency(arw, vrw);
-        }
-    }
-
-    fn check_linear_model_consistency(arw: f64, vrw: f64) {
-        use nalgebra::{Matrix6xX, Vector6};
-        use rand::{Rng, SeedableRng};
-        use rand_distr::StandardNormal;
-        let window = 1.0;
-        let f = error_dynamics(
-            &Vector3::new(0.0, 6.4e-5, 3.4e-5),
-            &Vector3::new(0.0, 0.0, 9.79),
-        );
-        let mut qc = Matrix6::zeros();
-        for i in 0..3 {
-            qc[(i, i)] = arw * arw;
-            qc[(i + 3, i + 3)] = vrw * vrw;
-        }
-        let a = transition(&f, window);
-        let lq = process_noise(&f, &qc, window).cholesky().unwrap().l();
-        let n_p = 4;
-        let prior = vec![1e-3; n_p];
-        let mut p0 = Matrix6::zeros();
-        for i in 0..3 {
-            p0[(i, i)] = 1e-6;
-            p0[(i + 3, i + 3)] = 1e-8;
-        }
-        let trials = 30;
-        let mut z2 = vec![0.0; n_p];
-        for trial in 0..trials {
-            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(trial);
-            let mut normal = || rng.sample::<f64, _>(StandardNormal);
-            let p_true: Vec<f64> = (0..n_p).map(|_| normal() * 1e-3).collect();
-            let mut x = Vector6::from_fn(|i, _| if i < 3 { 1e-3 } else { 1e-4 });
-            let noise = NoiseModel::white(arw, vrw);
-            let mut kf = SystematicFilter::new(f, &p0, &prior, &noise, 0.0, 1e-6);
-            for k in 0..1500 {
-                // Each parameter drives a direction that changes every
-                // 300 s, like a multi-position scheme.
-                let phase = k / 300;
-                let mut b = Matrix6xX::zeros(n_p);
-                kf.add_record(0.5 * window, |cols| {
-                    for j in 0..n_p {
-                        let ang = (phase * 7 + j * 3) as f64;
-                        let col = Vector3::new(ang.sin(), ang.cos(), (0.3 * ang).sin()) * 1e-2;
-                        let (rows, r0) = if j % 2 == 0 {
-                            (Rows::Attitude, 0)
-                        } else {
-                            (Rows::Velocity, 3)
-                        };
-                        cols.set(j, rows, &col);
-                        b.fixed_view_mut::<3, 1>(r0, j).copy_from(&col);
-                    }
-                });
-                // The same single mid-window record the filter expands.
-                let fm = nalgebra::DMatrix::from_column_slice(6, 6, f.as_slice());
-                let bd = nalgebra::DMatrix::from_column_slice(6, n_p, b.as_slice());
-                let b_eff = &bd
-                    + &fm * &bd * (0.5 * window)
-                    + (&fm * &fm) * &bd * (0.125 * window * window);
-                let bp = b_eff * DVector::from_vec(p_true.clone());
-                let w = lq * Vector6::from_fn(|_, _| normal());
-                x = a * x + Vector6::from_column_slice(bp.as_slice()) + w;
-                kf.propagate(window, &Matrix3::identity());
-                let z = Vector3::new(x[3], x[4], x[5]) + Vector3::from_fn(|_, _| normal() * 1e-6);
-                kf.update_zero_velocity(&z, &Matrix3::identity()).unwrap();
-                let (phi, dv) = kf.take_navigation_errors();
-                for i in 0..3 {
-                    x[i] -= phi[i];
-                    x[i + 3] -= dv[i];
-                }
-            }
-            let (d, s) = kf.parameters(0.0).unwrap();
-            for j in 0..n_p {
-                z2[j] += ((d[j] - p_true[j]) / s[j]).powi(2);
-            }
-        }
-        for (j, v) in z2.iter().enumerate() {
-            let rms = (v / trials as f64).sqrt();
-            assert!(
-                (0.7..1.3).contains(&rms),
-                "ARW {arw} rad/√s, VRW {vrw} m/s/√s, parameter {j}: rms err/σ {rms}"
-            );
-        }
-    }
-}
+#[path = "filter_tests.rs"]
+mod tests;

@@ -16,7 +16,7 @@
 //! with the full real-sensor model the state has some forty entries, and
 //! a dense product per window would cost more than the records do.
 
-use nalgebra::{DMatrix, DVector, Matrix6};
+use nalgebra::{Cholesky, DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6, U3};
 
 use super::wander::{WanderComponent, WanderStep};
 
@@ -92,65 +92,49 @@ impl NavErrors {
         self.wander.iter().map(|c| c.step(t)).collect()
     }
 
-    /// Propagates the estimate and covariance over one window.
-    pub fn propagate(&mut self, w: &WindowModel, steps: &[WanderStep]) {
-        let x = std::mem::replace(&mut self.x, DVector::zeros(0));
-        self.x = self
-            .transition_left(
-                w,
-                steps,
-                &DMatrix::from_column_slice(x.len(), 1, x.as_slice()),
-            )
-            .column(0)
-            .into_owned();
-        // A P Aᵀ = A (A P)ᵀ for symmetric P.
-        let ap = self.transition_left(w, steps, &self.p);
-        let mut p = self.transition_left(w, steps, &ap.transpose());
-        self.add_process_noise(&mut p, w, steps);
-        self.p = (&p + p.transpose()) * 0.5;
+    /// The window's transition A, in its structure.
+    pub fn transition(&self, w: &WindowModel, steps: &[WanderStep]) -> Transition {
+        let components = self
+            .wander
+            .iter()
+            .zip(steps)
+            .map(|(c, s)| ComponentStep {
+                axis: c.axis,
+                mean_decay: s.mean_decay,
+                decay: s.decay,
+                integral: self.integral[c.axis].map(|k| (k, w.t * s.mean_decay)),
+            })
+            .collect();
+        Transition {
+            phi: *w.phi,
+            coupling: *w.coupling,
+            components,
+        }
     }
 
-    /// A·M for the window's transition A (M has one row per state): how
-    /// the sensitivity V and the estimate move.
-    pub fn transition_left(
-        &self,
-        w: &WindowModel,
-        steps: &[WanderStep],
-        m: &DMatrix<f64>,
-    ) -> DMatrix<f64> {
-        let mut out = m.clone();
-        let phi = DMatrix::from_column_slice(NAV, NAV, w.phi.as_slice());
-        let mut nav = phi * m.rows(0, NAV);
-        let n_w = self.wander.len();
-        if n_w > 0 {
-            // The wander's coupling into the navigation, one column per
-            // component: its axis's bias column times its mean decay.
-            let g = DMatrix::from_fn(NAV, n_w, |r, i| {
-                w.coupling[(r, self.wander[i].axis)] * steps[i].mean_decay
-            });
-            nav.gemm(1.0, &g, &m.rows(NAV, n_w), 1.0);
-        }
-        for (i, (c, s)) in self.wander.iter().zip(steps).enumerate() {
-            if let Some(k) = self.integral[c.axis] {
-                let a = w.t * s.mean_decay;
-                for col in 0..m.ncols() {
-                    out[(k, col)] += a * m[(NAV + i, col)];
-                }
-            }
-            out.row_mut(NAV + i).scale_mut(s.decay);
-        }
-        out.rows_mut(0, NAV).copy_from(&nav);
-        out
+    /// Propagates the estimate and covariance over one window whose
+    /// transition `a` is [`NavErrors::transition`]'s.
+    pub fn propagate(&mut self, a: &Transition, w: &WindowModel, steps: &[WanderStep]) {
+        a.apply(self.x.as_mut_slice());
+        // A P Aᵀ = A (A P)ᵀ for symmetric P.
+        a.apply_columns(&mut self.p);
+        self.p.transpose_mut();
+        a.apply_columns(&mut self.p);
+        self.add_process_noise(w, steps);
+        symmetrise(&mut self.p);
     }
 
     /// Adds the window's process noise: white noise on the navigation
     /// block, and each component's new noise entering its own state, the
     /// navigation (half of it acts over the window, as a random walk's
     /// increment grows through it) and its axis's integral (likewise).
-    fn add_process_noise(&self, p: &mut DMatrix<f64>, w: &WindowModel, steps: &[WanderStep]) {
-        let mut nav = p.view((0, 0), (NAV, NAV)).into_owned();
-        nav += DMatrix::from_column_slice(NAV, NAV, w.q_white.as_slice());
-        p.view_mut((0, 0), (NAV, NAV)).copy_from(&nav);
+    fn add_process_noise(&mut self, w: &WindowModel, steps: &[WanderStep]) {
+        let p = &mut self.p;
+        for c in 0..NAV {
+            for r in 0..NAV {
+                p[(r, c)] += w.q_white[(r, c)];
+            }
+        }
         for (i, (c, s)) in self.wander.iter().zip(steps).enumerate() {
             if s.noise_variance <= 0.0 {
                 continue;
@@ -182,6 +166,46 @@ impl NavErrors {
         }
     }
 
+    /// The zero-velocity update of the bias-free states with the
+    /// bias-free innovation `y_bar` (the observed velocity less the
+    /// estimate's) and the measurement's covariance `r`. Returns the
+    /// innovation's covariance, its factor and the gain (`None` if the
+    /// covariance is not positive definite); P in the Joseph form, expanded
+    /// for a measurement that selects the velocity rows:
+    /// P − K P_v·ᵀ − P_·v Kᵀ + K S Kᵀ.
+    pub fn update_velocity(
+        &mut self,
+        y_bar: &Vector3<f64>,
+        r: &Matrix3<f64>,
+    ) -> Option<VelocityUpdate> {
+        let n = self.len();
+        // Row i of P_·v: state i's covariance with the velocity.
+        let p_v: Vec<Vector3<f64>> = (0..n)
+            .map(|i| Vector3::new(self.p[(i, 3)], self.p[(i, 4)], self.p[(i, 5)]))
+            .collect();
+        let s = Matrix3::from_fn(|i, j| p_v[3 + i][j]) + r;
+        let chol = s.cholesky()?;
+        let s_inv = chol.inverse();
+        let k: Vec<Vector3<f64>> = p_v.iter().map(|pv| s_inv * pv).collect();
+        for (i, ki) in k.iter().enumerate() {
+            self.x[i] += ki.dot(y_bar);
+        }
+        // −K P_v·ᵀ − P_·v Kᵀ + K S Kᵀ = (K S − P_·v) Kᵀ − K P_v·ᵀ, row r
+        // and column c; written on both sides of the diagonal from one
+        // value, so P stays exactly symmetric.
+        let ks_pv: Vec<Vector3<f64>> = k.iter().zip(&p_v).map(|(k, pv)| s * k - pv).collect();
+        for c in 0..n {
+            for r in 0..=c {
+                let d = ks_pv[r].dot(&k[c]) - k[r].dot(&p_v[c]);
+                let v = 0.5 * (self.p[(r, c)] + self.p[(c, r)]) + d;
+                self.p[(r, c)] = v;
+                self.p[(c, r)] = v;
+            }
+        }
+        let gain = DMatrix::from_fn(n, 3, |i, j| k[i][j]);
+        Some(VelocityUpdate { s, chol, gain })
+    }
+
     /// The velocity error made unknown: σ `sigma_mps` per axis,
     /// uncorrelated with every other state, mean zero.
     pub fn forget_velocity(&mut self, sigma_mps: f64) {
@@ -199,6 +223,82 @@ impl NavErrors {
         let out = std::array::from_fn(|i| self.x[i]);
         self.x.rows_mut(0, NAV).fill(0.0);
         out
+    }
+}
+
+/// What a zero-velocity update made: the innovation's covariance S, its
+/// Cholesky factor, and the gain K (one row per state).
+pub struct VelocityUpdate {
+    pub s: Matrix3<f64>,
+    pub chol: Cholesky<f64, U3>,
+    pub gain: DMatrix<f64>,
+}
+
+/// A window's transition of the bias-free states in its structure: the
+/// navigation block exp(F T), the wander's coupling into the navigation
+/// errors (each component through its axis's bias column, times its mean
+/// decay), each component's decay, and its share of its axis's integral.
+/// Applied a column at a time, never as a dense matrix: with the full
+/// real-sensor model the state has some forty entries, and a dense product
+/// per window would cost more than the records do.
+pub struct Transition {
+    phi: Matrix6<f64>,
+    coupling: Matrix6<f64>,
+    components: Vec<ComponentStep>,
+}
+
+struct ComponentStep {
+    axis: usize,
+    mean_decay: f64,
+    decay: f64,
+    /// The axis's integral state and the component's gain into it (T
+    /// times its mean decay).
+    integral: Option<(usize, f64)>,
+}
+
+impl Transition {
+    /// A·m for one column m (one entry per state), in place. An axis's
+    /// components share its bias column, so they are summed on the axis
+    /// first (with many components a column costs a third of the dense
+    /// coupling's product).
+    pub fn apply(&self, m: &mut [f64]) {
+        let mut bias = Vector6::zeros();
+        for (i, c) in self.components.iter().enumerate() {
+            let w = m[NAV + i];
+            bias[c.axis] += c.mean_decay * w;
+            if let Some((k, a)) = c.integral {
+                m[k] += a * w;
+            }
+            m[NAV + i] = w * c.decay;
+        }
+        let mut nav = self.phi * Vector6::from_column_slice(&m[..NAV]);
+        if !self.components.is_empty() {
+            nav += self.coupling * bias;
+        }
+        m[..NAV].copy_from_slice(nav.as_slice());
+    }
+
+    /// A·M for M with one row per state, in place: how the sensitivity V
+    /// and the covariance move.
+    pub fn apply_columns(&self, m: &mut DMatrix<f64>) {
+        let n = m.nrows();
+        if n == 0 {
+            return;
+        }
+        for col in m.as_mut_slice().chunks_exact_mut(n) {
+            self.apply(col);
+        }
+    }
+}
+
+/// (P + Pᵀ)/2, in place.
+fn symmetrise(p: &mut DMatrix<f64>) {
+    for c in 0..p.ncols() {
+        for r in 0..c {
+            let v = 0.5 * (p[(r, c)] + p[(c, r)]);
+            p[(r, c)] = v;
+            p[(c, r)] = v;
+        }
     }
 }
 
@@ -268,10 +368,12 @@ mod tests {
             a[(k, 6 + i)] = steps[i].mean_decay;
         }
         let m = DMatrix::from_fn(n, 4, |r, c| (r as f64 * 0.7 + c as f64).sin());
-        let got = e.transition_left(&w, &steps, &m);
+        let transition = e.transition(&w, &steps);
+        let mut got = m.clone();
+        transition.apply_columns(&mut got);
         assert!((got - &a * &m).norm() < 1e-12);
         let p0 = e.p.clone();
-        e.propagate(&w, &steps);
+        e.propagate(&transition, &w, &steps);
         let dense = &a * &p0 * a.transpose();
         // The white block and the components' noise come on top.
         let extra = &e.p - dense;
