@@ -101,7 +101,7 @@ fn clean_runs_are_adequate_at_tactical_grade() {
 /// `real_navigation_grade` draws it (1″ and 1e-4 m/s pulses, bias
 /// instability and random walk across their navigation-grade ranges,
 /// floor vibration), each calibrated under the noise model measured and
-/// fitted from its own run: none flagged. At reduced size (100 s dwells,
+/// fitted from its own run: none flagged. At reduced size (60 s dwells,
 /// 10 Hz: the fit's cost is the run's length, the simulation's its
 /// records); the rate over 500 seeds at full size is `cargo bench --bench
 /// model_check -- --real --clean 250 --first 1 --effects 0` (and
@@ -111,7 +111,7 @@ fn clean_real_units_are_adequate() {
     clean_runs_pass(
         real_navigation_grade,
         1..=20,
-        |_| nine_plus_nine(100.0),
+        |_| nine_plus_nine(60.0),
         10.0,
     );
 }
