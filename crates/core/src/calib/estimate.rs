@@ -262,14 +262,15 @@ fn estimate_from(
     let traced = source == NoiseSource::Fitted && !opts.model.has(Effect::Thermal);
     let est = run_passes(ctx, head, budget, min_passes, traced, (lo, span), progress)?;
     let fitted_ctx;
-    let (ctx, est, fit_evaluations) = if source == NoiseSource::Fitted {
+    let (ctx, est, fit) = if source == NoiseSource::Fitted {
         let range = (0.05 + 0.5 * share, 0.5 * share);
-        let (c, e, n) = refit_noise(ctx, est, range, progress)?;
+        let (c, e, fit) = refit_noise(ctx, est, range, progress)?;
         fitted_ctx = c;
-        (&fitted_ctx, e, Some(n))
+        (&fitted_ctx, e, Some(fit))
     } else {
         (ctx, est, None)
     };
+    let fit_evaluations = fit.as_ref().map(|f| f.evaluations);
     let unsettled = est.unsettled(ctx);
     let (params, effects, passes, mut last) = (est.params, est.effects, est.passes, est.last);
     let cross_check = cross_check_phase(ctx, &params, &effects, &mut last, progress)?;
@@ -288,6 +289,9 @@ fn estimate_from(
         warnings: unsettled.into_iter().collect(),
         ..Findings::default()
     };
+    if let Some(fit) = &fit {
+        findings.warnings.extend(fit.warnings(ctx.grade));
+    }
     let parameters = parameter_table(&params, &last, ctx.priors(), &mut findings);
     findings.warnings.extend(thermal_span_warning(ctx));
     let effect_estimates = effect_table(
@@ -409,14 +413,13 @@ fn noise_source(ctx: &PassContext) -> NoiseSource {
 
 /// Fits the noise model to the innovations of the last pass (`noise_fit`,
 /// over its trace), then runs the passes again under it:
-/// the context with the fitted model, the new estimate and the
-/// likelihood evaluations spent.
+/// the context with the fitted model, the new estimate and the fit.
 fn refit_noise<'a>(
     ctx: &PassContext<'a>,
     mut est: Estimate,
     (lo, span): (f64, f64),
     progress: &mut dyn FnMut(Progress),
-) -> Result<(PassContext<'a>, Estimate, usize), CalibError> {
+) -> Result<(PassContext<'a>, Estimate, NoiseFit), CalibError> {
     progress(Progress {
         fraction: lo,
         stage: "fitting the noise model to the run".into(),
@@ -443,7 +446,7 @@ fn refit_noise<'a>(
         range,
         progress,
     )?;
-    Ok((fitted, est, fit.evaluations))
+    Ok((fitted, est, fit))
 }
 
 /// The noise fit of an in-run thermal calibration: over the trace of one
