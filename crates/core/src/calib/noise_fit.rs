@@ -83,18 +83,32 @@ impl FreeTerm {
     fn nominal(self, grade: Grade) -> f64 {
         use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
         let per_rt_h = 1.0 / HOUR.sqrt();
+        let (v, _) = self.typical(grade);
+        match self {
+            FreeTerm::GyroWhite => v * DEG_PER_RT_H,
+            FreeTerm::AccelWhite => v * UG_PER_RT_HZ,
+            FreeTerm::GyroInstability => v * DEG_PER_H,
+            FreeTerm::AccelInstability => v * UG,
+            FreeTerm::GyroRandomWalk => v * DEG_PER_H * per_rt_h,
+            FreeTerm::AccelRandomWalk => v * UG * per_rt_h,
+        }
+    }
+
+    /// [`FreeTerm::nominal`] in the units a datasheet gives, and those
+    /// units.
+    fn typical(self, grade: Grade) -> (f64, &'static str) {
         let [gyro_b, gyro_k, accel_b, accel_k] = match grade {
             Grade::Navigation => [0.001, 0.0003, 2.0, 2.0],
             Grade::Tactical => [0.3, 0.1, 20.0, 20.0],
             Grade::Consumer => [5.0, 3.0, 50.0, 100.0],
         };
         match self {
-            FreeTerm::GyroWhite => 0.0003 * DEG_PER_RT_H,
-            FreeTerm::AccelWhite => 5.0 * UG_PER_RT_HZ,
-            FreeTerm::GyroInstability => gyro_b * DEG_PER_H,
-            FreeTerm::AccelInstability => accel_b * UG,
-            FreeTerm::GyroRandomWalk => gyro_k * DEG_PER_H * per_rt_h,
-            FreeTerm::AccelRandomWalk => accel_k * UG * per_rt_h,
+            FreeTerm::GyroWhite => (0.0003, "deg/√h"),
+            FreeTerm::AccelWhite => (5.0, "µg/√Hz"),
+            FreeTerm::GyroInstability => (gyro_b, "deg/h"),
+            FreeTerm::AccelInstability => (accel_b, "µg"),
+            FreeTerm::GyroRandomWalk => (gyro_k, "deg/h/√h"),
+            FreeTerm::AccelRandomWalk => (accel_k, "µg/√h"),
         }
     }
 
@@ -107,21 +121,6 @@ impl FreeTerm {
             FreeTerm::AccelInstability => "accelerometer bias instability",
             FreeTerm::GyroRandomWalk => "gyro rate random walk",
             FreeTerm::AccelRandomWalk => "accelerometer bias random walk",
-        }
-    }
-
-    /// [`FreeTerm::nominal`] in the units a datasheet gives.
-    fn typical(self, grade: Grade) -> String {
-        use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
-        let v = self.nominal(grade);
-        let per_rt_h = 1.0 / HOUR.sqrt();
-        match self {
-            FreeTerm::GyroWhite => format!("{} deg/√h", v / DEG_PER_RT_H),
-            FreeTerm::AccelWhite => format!("{} µg/√Hz", v / UG_PER_RT_HZ),
-            FreeTerm::GyroInstability => format!("{} deg/h", v / DEG_PER_H),
-            FreeTerm::AccelInstability => format!("{} µg", v / UG),
-            FreeTerm::GyroRandomWalk => format!("{} deg/h/√h", v / (DEG_PER_H * per_rt_h)),
-            FreeTerm::AccelRandomWalk => format!("{} µg/√h", v / (UG * per_rt_h)),
         }
     }
 
@@ -189,10 +188,10 @@ impl NoiseFit {
         self.assumed
             .iter()
             .map(|t| {
+                let (value, unit) = t.typical(grade);
                 format!(
-                    "the run does not resolve the {}: the filter carries a typical {grade} unit's {} (σ include it)",
-                    t.name(),
-                    t.typical(grade)
+                    "the run does not resolve the {}: the filter carries a typical {grade} unit's {value} {unit}, and every σ allows for it",
+                    t.name()
                 )
             })
             .collect()
@@ -457,7 +456,53 @@ fn nelder_mead(
 
 #[cfg(test)]
 mod tests {
-    use super::keep_joint_wander_ln_l;
+    use super::{carry_unresolved_wander, keep_joint_wander_ln_l, FreeTerm, NoiseFit};
+    use crate::estimation::noise_model::NoiseModel;
+    use crate::model::Grade;
+
+    /// Below navigation grade the wander a fit left at zero is carried at
+    /// the grade's typical size, and named so in the result; a term the
+    /// fit kept stays as fitted; at navigation grade nothing is added.
+    #[test]
+    fn unresolved_wander_is_carried_below_navigation_grade_only() {
+        let mut fitted = NoiseModel::white(1e-5, 1e-3);
+        fitted.accel.instability = [2e-4; 3];
+        let mut nav = fitted;
+        assert!(
+            carry_unresolved_wander(Grade::Navigation, &FreeTerm::SETTLED, &mut nav).is_empty()
+        );
+        assert_eq!(nav, fitted);
+        let mut mems = fitted;
+        let assumed = carry_unresolved_wander(Grade::Consumer, &FreeTerm::SETTLED, &mut mems);
+        assert_eq!(
+            assumed,
+            [
+                FreeTerm::GyroInstability,
+                FreeTerm::GyroRandomWalk,
+                FreeTerm::AccelRandomWalk
+            ]
+        );
+        assert_eq!(mems.accel.instability, fitted.accel.instability);
+        assert_eq!(mems.gyro.white, fitted.gyro.white);
+        let deg_h = std::f64::consts::PI / 180.0 / 3600.0;
+        assert!((mems.gyro.instability[2] / (5.0 * deg_h) - 1.0).abs() < 1e-12);
+        let fit = NoiseFit {
+            model: mems,
+            evaluations: 0,
+            assumed,
+        };
+        let w = fit.warnings(Grade::Consumer);
+        assert!(
+            w[0].contains("gyro bias instability") && w[0].contains("consumer unit's 5 deg/h"),
+            "{}",
+            w[0]
+        );
+        assert!(
+            w[2].contains("accelerometer bias random walk") && w[2].contains("100 µg/√h"),
+            "{}",
+            w[2]
+        );
+    }
 
     /// ln Γ(a) for a a positive multiple of ½.
     fn ln_gamma_half(a: f64) -> f64 {
