@@ -144,16 +144,7 @@ impl PassTrace {
         let mut effect = Vector6::zeros();
         let mut groups = Vec::with_capacity(self.windows.len() / decimation.max(1) + 1);
         for group in self.windows.chunks(decimation.max(1)) {
-            // Windows merged: B of the whole is each one's carried on by
-            // the transitions after it; only the last update is kept.
-            let mut b = DMatrix::zeros(NAV, self.n_p);
-            let mut t = 0.0;
-            for w in group {
-                let phi = kf.navigation_transition(w.t);
-                let bw = DMatrix::from_iterator(NAV, self.n_p, w.b.iter().map(|x| *x as f64));
-                b = DMatrix::from_column_slice(NAV, NAV, phi.as_slice()) * b + bw;
-                t += w.t;
-            }
+            let (t, b) = self.merged_input(&mut kf, group);
             let last = group.last().expect("chunks are not empty");
             let bp = &b * p;
             effect =
@@ -173,6 +164,25 @@ impl PassTrace {
             ));
         }
         Ok(ProfileReplay { windows: groups })
+    }
+
+    /// Consecutive windows merged into one: its length and its parameter
+    /// input B, each window's carried on by the transitions after it
+    /// (`kf` gives exp(F T); only the last window's update is kept).
+    fn merged_input(
+        &self,
+        kf: &mut SystematicFilter,
+        group: &[WindowTrace],
+    ) -> (f64, DMatrix<f64>) {
+        let mut b = DMatrix::zeros(NAV, self.n_p);
+        let mut t = 0.0;
+        for w in group {
+            let phi = kf.navigation_transition(w.t);
+            let bw = DMatrix::from_iterator(NAV, self.n_p, w.b.iter().map(|x| *x as f64));
+            b = DMatrix::from_column_slice(NAV, NAV, phi.as_slice()) * b + bw;
+            t += w.t;
+        }
+        (t, b)
     }
 }
 
@@ -210,24 +220,22 @@ impl ReplayWindow {
         forgot_velocity: bool,
         zupt_v_n: Option<Vector3<f64>>,
     ) -> Self {
-        let mut phi = Matrix6::zeros();
         let q_per_axis = std::array::from_fn(|axis| {
             // A unit density on one body axis, in n.
             let u = c_b_n.column(axis % 3);
             let unit_n = u * u.transpose();
             let zero = Matrix3::zeros();
-            let (p, q) = if axis < 3 {
+            let (_, q) = if axis < 3 {
                 kf.window_matrices(t, &unit_n, &zero)
             } else {
                 kf.window_matrices(t, &zero, &unit_n)
             };
-            phi = p;
             q
         });
         ReplayWindow {
             t,
             c_b_n: *c_b_n,
-            phi,
+            phi: kf.navigation_transition(t),
             q_per_axis,
             coupling: kf.bias_columns(b),
             forgot_velocity,
@@ -277,7 +285,7 @@ impl ProfileReplay {
 mod tests {
     use std::sync::atomic::AtomicBool;
 
-    use nalgebra::{DMatrix, DVector, Vector3, Vector6};
+    use nalgebra::{DVector, Vector3, Vector6};
 
     use super::PassTrace;
     use crate::calib::kf_pass::filter_pass;
@@ -285,7 +293,7 @@ mod tests {
     use crate::calib::sources::SliceSource;
     use crate::calib::walk::PassContext;
     use crate::calib::{EstimateOptions, NoiseDensity, RunInfo};
-    use crate::estimation::filter::{SystematicFilter, FORGOTTEN_VELOCITY_SIGMA_MPS, NAV};
+    use crate::estimation::filter::{SystematicFilter, FORGOTTEN_VELOCITY_SIGMA_MPS};
     use crate::model::{Effects, ErrorParameters};
     use crate::nav::Site;
     use crate::sim::{simulate, Noise, Scheme, SimConfig};
@@ -359,22 +367,16 @@ mod tests {
         }
     }
 
-    /// The profile likelihood as its definition reads: each merged window's
-    /// B rebuilt, the parameters' effect carried and taken out, the filter
-    /// propagated from the records' input.
+    /// The profile likelihood as its definition reads: the parameters'
+    /// effect carried and taken out window by window, the filter
+    /// propagated from each merged window's input B, its matrices made
+    /// for that window.
     fn profile_written_out(trace: &PassTrace, kf: SystematicFilter, decimation: usize) -> f64 {
         let mut kf = kf.with_parameters_known();
         let p = trace.estimate.as_ref().unwrap();
         let mut effect = Vector6::zeros();
         for group in trace.windows.chunks(decimation) {
-            let mut b = DMatrix::zeros(NAV, trace.n_p);
-            let mut t = 0.0;
-            for w in group {
-                let phi = kf.navigation_transition(w.t);
-                let bw = DMatrix::from_iterator(NAV, trace.n_p, w.b.iter().map(|x| *x as f64));
-                b = DMatrix::from_column_slice(NAV, NAV, phi.as_slice()) * b + bw;
-                t += w.t;
-            }
+            let (t, b) = trace.merged_input(&mut kf, group);
             let last = group.last().unwrap();
             let bp = &b * p;
             effect =
