@@ -6,10 +6,10 @@
 //! gyro's bias instability sits below its white noise there too. The
 //! zero-velocity observations see both plainly: a tilt that wanders makes
 //! the velocity curve within minutes. So the terms are chosen to maximise
-//! the likelihood of the pass's innovations, the parameters integrated
-//! out (`SystematicFilter::log_likelihood`), over the pass replayed from
-//! its trace (`replay`, prepared once for every evaluation), starting from
-//! what the Allan curves said.
+//! the likelihood of the pass's innovations, the parameters held at the
+//! pass's estimate (`ProfileReplay::log_likelihood`), over the pass
+//! replayed from its trace (`replay`, prepared once for every
+//! evaluation), starting from what the Allan curves said.
 //!
 //! The search is a Nelder–Mead simplex in the logarithm of each term,
 //! which follows the ridge that correlated terms make (a gyro's white
