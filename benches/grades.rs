@@ -17,14 +17,25 @@
 //! nine terms drawn uniform in ±G deg/h/g (stream 9 of the seed; a MEMS
 //! gyro's are tenths of a deg/s per g: imu_tk's Xsens 100–560 deg/h/g);
 //! `--carry-g` calibrates with it as states (`base-24+gyro_g_sensitivity`)
-//! and scores its six cross terms as an eighth family.
+//! and scores its six cross terms as an eighth family; `--model M`
+//! calibrates with model M (`base+accel_lever_arm+…`) instead.
+//!
+//! `--diagnose` runs the discrepancy workflow on each seed's run instead
+//! and counts its verdicts: on runs without effects every one it names
+//! is a false alarm (with `--g-sensitivity`, the effect it should name).
 
 use rand::{Rng, SeedableRng};
-use sinscal_core::calib::sources::calibrate_in_memory;
-use sinscal_core::calib::{CalibrationResult, Effect, ErrorModel, EstimateOptions, NoiseDensity};
+use std::sync::atomic::AtomicBool;
+
+use sinscal_core::calib::sources::{calibrate_in_memory, SliceSource};
+use sinscal_core::calib::{
+    CalibrationResult, Effect, ErrorModel, EstimateOptions, NoiseDensity, RunInfo,
+};
+use sinscal_core::diagnose::{diagnose, DiagnoseOptions};
 use sinscal_core::model::{Grade, Group, PARAMETERS};
 use sinscal_core::sim::grade_runs::{hand_run, StartHeading};
 use sinscal_core::sim::{simulate, BiasMean, Noise, SimConfig};
+use sinscal_core::Record;
 
 /// The number of parameter families (`Group::ALL`), and the
 /// g-sensitivity's row after them.
@@ -50,6 +61,10 @@ struct Flags {
     g_sensitivity: Option<f64>,
     /// Calibrate with the g-sensitivity as states.
     carry_g: bool,
+    /// Diagnose each run and count the verdicts.
+    diagnose: bool,
+    /// Calibrate with this model (`base+…`) instead.
+    model: Option<ErrorModel>,
 }
 
 impl Flags {
@@ -68,7 +83,7 @@ impl Flags {
             seeds: args
                 .iter()
                 .skip(1)
-                .take_while(|a| *a != "--only" && *a != "--g-sensitivity")
+                .take_while(|a| !matches!(a.as_str(), "--only" | "--g-sensitivity" | "--model"))
                 .find_map(|a| a.parse().ok())
                 .unwrap_or(20),
             grades: grade.map_or(vec![Grade::Tactical, Grade::Consumer], |g| vec![g]),
@@ -88,6 +103,12 @@ impl Flags {
                 .and_then(|i| args.get(i + 1))
                 .and_then(|v| v.parse().ok()),
             carry_g: args.iter().any(|a| a == "--carry-g"),
+            diagnose: args.iter().any(|a| a == "--diagnose"),
+            model: args
+                .iter()
+                .position(|a| a == "--model")
+                .and_then(|i| args.get(i + 1))
+                .map(|m| m.parse().expect("--model base+<effect>…")),
         }
     }
 }
@@ -207,10 +228,10 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
         let opts = EstimateOptions {
             cross_check: false,
             noise: flags.known_noise.then(|| NoiseDensity::from(&cfg.noise)),
-            model: if flags.carry_g {
-                ErrorModel::with(&[Effect::GyroGSensitivity])
-            } else {
-                ErrorModel::base()
+            model: match &flags.model {
+                Some(m) => m.clone(),
+                None if flags.carry_g => ErrorModel::with(&[Effect::GyroGSensitivity]),
+                None => ErrorModel::base(),
             },
             ..EstimateOptions::default()
         };
@@ -263,9 +284,62 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
     tally
 }
 
+/// The discrepancy workflow on each seed's run: its verdicts, counted.
+fn diagnose_grade(grade: Grade, flags: &Flags) {
+    let seeds = match flags.only {
+        Some(k) => k..=k,
+        None => 1..=flags.seeds,
+    };
+    let mut verdicts = std::collections::BTreeMap::<String, usize>::new();
+    for seed in seeds {
+        let cfg = sim_config(grade, seed, flags);
+        let records: Vec<Record> = simulate(&cfg).expect("valid").collect();
+        let run = RunInfo {
+            site: cfg.site,
+            sample_rate_hz: cfg.sample_rate_hz,
+        };
+        let cancel = AtomicBool::new(false);
+        let mut stage = String::new();
+        let mut opts = DiagnoseOptions::default();
+        opts.estimate.noise = flags.known_noise.then(|| NoiseDensity::from(&cfg.noise));
+        let verdict = match diagnose(
+            &SliceSource(&records),
+            &run,
+            &opts,
+            &mut |p| stage = p.stage,
+            &cancel,
+        ) {
+            Ok(rep) => {
+                if flags.per_seed {
+                    println!(
+                        "{grade} seed {seed:>3}: {} (gap z {:.1} → {:.1})",
+                        rep.verdict, rep.z_before, rep.z_after
+                    );
+                }
+                rep.verdict.to_string()
+            }
+            Err(e) => {
+                if flags.per_seed {
+                    println!("{grade} seed {seed:>3}: failed at \"{stage}\": {e}");
+                }
+                format!("failed: {e}")
+            }
+        };
+        *verdicts.entry(verdict).or_default() += 1;
+    }
+    println!("{grade}: diagnosis verdicts over {} seeds", flags.seeds);
+    for (verdict, n) in verdicts {
+        println!("  {n:>3}  {verdict}");
+    }
+}
+
 fn main() {
     let flags = Flags::from_env();
     for &grade in &flags.grades {
-        run_grade(grade, &flags).print(grade, &flags);
+        if flags.diagnose {
+            diagnose_grade(grade, &flags);
+        } else {
+            run_grade(grade, &flags).print(grade, &flags);
+        }
     }
 }

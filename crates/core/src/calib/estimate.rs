@@ -8,7 +8,7 @@
 
 use std::sync::atomic::AtomicBool;
 
-use super::effect_model::Effect;
+use super::effect_model::{Effect, ErrorModel};
 use super::error::CalibError;
 use super::kf_pass::{effect_terms, filter_pass, kf_pass, Pass};
 use super::noise_fit::{fit_noise, FreeTerm, NoiseFit};
@@ -124,7 +124,7 @@ pub(crate) fn estimate_scanned(
         Some(_) => estimate_from(ctx, None, progress),
         None => {
             let (measured, head) = measure_beside_first_pass(ctx, progress)?;
-            estimate_from(&ctx.with_noise(measured), Some(head), progress)
+            estimate_or_restart(&ctx.with_noise(measured), ctx, Some(head), progress)
         }
     }
 }
@@ -155,18 +155,19 @@ pub(crate) fn estimate_base_for_diagnosis(
     }
     let probe_opts = with_every_effect(opts, ctx.temperature.as_ref())?;
     let probe_ctx = ctx.with_options(&probe_opts).with_noise(measured);
-    let probe = estimate_from(&probe_ctx, None, &mut |p| {
+    let mut probe_progress = |p: Progress| {
         progress(Progress {
             fraction: 0.5 * p.fraction,
             ..p
         })
-    })?;
+    };
+    let probe = estimate_or_restart(&probe_ctx, ctx, None, &mut probe_progress)?;
     let held = EstimateOptions {
         fit_noise: false,
         ..opts.clone()
     };
     let held_ctx = ctx.with_options(&held).with_noise(probe.noise);
-    let mut base = estimate_from(&held_ctx, None, &mut |p| {
+    let mut base = estimate_or_restart(&held_ctx, ctx, None, &mut |p| {
         progress(Progress {
             fraction: 0.5 + 0.5 * p.fraction,
             ..p
@@ -175,6 +176,60 @@ pub(crate) fn estimate_base_for_diagnosis(
     // The model was fitted, by the probe.
     base.result.noise_model = probe.result.noise_model;
     Ok(base)
+}
+
+/// [`estimate_from`], started again from the base model's converged
+/// answer when its passes run away. From zero (or from one pass), a
+/// consumer unit's errors (biases to 1 deg/s, mountings to 3°) are far
+/// outside the linear range: with some thirty loosely held effect states
+/// at once (the discrepancy workflow's probe) the passes ran away on 7 of
+/// 20 hand-turned consumer runs, each correction thousands of its σ and
+/// growing until the parameters' information lost definiteness (`cargo
+/// bench --bench grades -- 20 --grade consumer --diagnose`), where the
+/// base model and each effect alone converge. `white` is the context the
+/// first pass runs in (the pre-scan's white densities).
+fn estimate_or_restart(
+    ctx: &PassContext,
+    white: &PassContext,
+    head: Option<Estimate>,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Calibrated, CalibError> {
+    match estimate_from(ctx, head, progress) {
+        Err(CalibError::Numerical(_)) => {
+            let restart = converged_base_head(ctx, white, progress)?;
+            estimate_from(ctx, Some(restart), progress)
+        }
+        other => other,
+    }
+}
+
+/// The base model's passes run to convergence under `ctx`'s noise model,
+/// as `calibrate` walks them (one pass under `white`'s densities first:
+/// from zero under a consumer unit's measured wander, the base model's own
+/// passes ran away on 1 of those 20 runs), with `ctx`'s every effect
+/// state at zero: where its own passes start again.
+fn converged_base_head(
+    ctx: &PassContext,
+    white: &PassContext,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Estimate, CalibError> {
+    let base_opts = EstimateOptions {
+        model: ErrorModel::base(),
+        ..ctx.opts.clone()
+    };
+    let white = white.with_options(&base_opts);
+    let range = (0.05, first_pass_share(&base_opts));
+    let head = run_passes(&white, None, 1, 1, false, range, progress)?;
+    let noisy = white.with_noise(ctx.noise);
+    let budget = base_opts.max_passes;
+    let base = run_passes(&noisy, Some(head), budget, 1, false, range, progress)?;
+    // The restarted passes count afresh: the head is a starting point,
+    // not passes spent on the model.
+    Ok(Estimate {
+        effects: vec![0.0; ctx.opts.model.states().len()],
+        passes: 0,
+        ..base
+    })
 }
 
 /// The options with every SPEC §3 effect as filter states, and the
