@@ -20,6 +20,9 @@
 //! and scores its six cross terms as an eighth family; `--model M`
 //! calibrates with model M (`base+accel_lever_arm+…`) instead.
 //!
+//! `--cross-check` runs the least-squares cross-check too and counts the
+//! runs where it differs from the filter by more than 3σ.
+//!
 //! `--diagnose` runs the discrepancy workflow on each seed's run instead
 //! and counts its verdicts: on runs without effects every one it names
 //! is a false alarm (with `--g-sensitivity`, the effect it should name).
@@ -65,6 +68,8 @@ struct Flags {
     diagnose: bool,
     /// Calibrate with this model (`base+…`) instead.
     model: Option<ErrorModel>,
+    /// Run the least-squares cross-check and count the runs it flags.
+    cross_check: bool,
 }
 
 impl Flags {
@@ -104,6 +109,7 @@ impl Flags {
                 .and_then(|v| v.parse().ok()),
             carry_g: args.iter().any(|a| a == "--carry-g"),
             diagnose: args.iter().any(|a| a == "--diagnose"),
+            cross_check: args.iter().any(|a| a == "--cross-check"),
             model: args
                 .iter()
                 .position(|a| a == "--model")
@@ -182,6 +188,7 @@ struct Tally {
     calibrated: usize,
     failed: Vec<String>,
     inadequate: usize,
+    cross_check_flagged: usize,
     graded: std::collections::BTreeMap<String, usize>,
 }
 
@@ -203,6 +210,12 @@ impl Tally {
         );
         for f in &self.failed {
             println!("  failed: {f}");
+        }
+        if flags.cross_check {
+            println!(
+                "  the cross-check flagged {} of {}",
+                self.cross_check_flagged, self.calibrated
+            );
         }
         let names = Group::ALL.iter().map(|g| format!("{g:?}"));
         let names = names.chain(std::iter::once("GSensitivity".to_string()));
@@ -226,7 +239,7 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
     for seed in seeds {
         let cfg = sim_config(grade, seed, flags);
         let opts = EstimateOptions {
-            cross_check: false,
+            cross_check: flags.cross_check,
             noise: flags.known_noise.then(|| NoiseDensity::from(&cfg.noise)),
             model: match &flags.model {
                 Some(m) => m.clone(),
@@ -248,6 +261,21 @@ fn run_grade(grade: Grade, flags: &Flags) -> Tally {
         tally.calibrated += 1;
         let check = res.model_check.as_ref().expect("a model check");
         tally.inadequate += usize::from(!check.adequate);
+        if let Some(cc) = &res.cross_check {
+            let flagged: Vec<&str> = cc
+                .entries
+                .iter()
+                .filter(|e| e.flagged)
+                .map(|e| e.name.as_str())
+                .collect();
+            tally.cross_check_flagged += usize::from(!flagged.is_empty());
+            if flags.per_seed && !flagged.is_empty() {
+                println!(
+                    "{grade} seed {seed:>3}: the cross-check differs on {}",
+                    flagged.join(", ")
+                );
+            }
+        }
         let given = res.grade.map_or("none".into(), |g| g.to_string());
         *tally.graded.entry(given.clone()).or_default() += 1;
         let z = z_scores(&cfg, &res, mean.as_ref());

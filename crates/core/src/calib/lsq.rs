@@ -38,6 +38,8 @@ use crate::model::{ErrorParameters, N_PARAMS};
 
 /// A node: the open-loop velocity there and what led to it.
 struct Node {
+    /// The dwell it lies in.
+    dwell: usize,
     v: Vector3<f64>,
     /// B of the stretch ending here (scaled parameters).
     b: DMatrix<f64>,
@@ -72,6 +74,7 @@ pub(super) fn lsq_pass(
     let f = error_dynamics(&site.omega_ie_n(), &site.f_rest_n());
     let window_s = ctx.window() as f64 / ctx.run.sample_rate_hz;
     let mut nodes: Vec<Node> = vec![Node {
+        dwell: 0,
         v: Vector3::zeros(),
         b: DMatrix::zeros(NAV, N_PARAMS),
         t: 0.0,
@@ -86,8 +89,9 @@ pub(super) fn lsq_pass(
         progress,
         |w, b, node| {
             since_node += w.t_end - w.t_start;
-            if node.is_some() {
+            if let Some(dwell) = node {
                 nodes.push(Node {
+                    dwell,
                     v: w.nav.v_n,
                     b: b.clone(),
                     t: since_node,
@@ -129,8 +133,17 @@ fn solve(
     let qc = white_noise_density(ctx.arw, ctx.vrw);
     for k in 0..k_nodes - 1 {
         let next = &nodes[k + 1];
-        let stretch = Stretch::new(f, &qc, next.t, &nodes[k].v, &next.v)
-            .ok_or_else(|| CalibError::Numerical("singular process noise".into()))?;
+        let mut stretch = Stretch::new(f, &qc, next.t, &nodes[k].v, &next.v);
+        // Across a motion whose velocity the model cannot follow (a unit
+        // below navigation grade turned by hand) the filter forgets the
+        // velocity error; so does this: only the attitude carried through
+        // it is an observation. Trusting it made every accelerometer
+        // parameter of imu_tk's Xsens recording disagree, by up to 580σ.
+        if next.dwell != nodes[k].dwell && !ctx.grade.trusts_motion_velocity() {
+            stretch = stretch.and_then(Stretch::without_velocity);
+        }
+        let stretch =
+            stretch.ok_or_else(|| CalibError::Numerical("singular process noise".into()))?;
         // r = L u + d over the unknowns (p, φ_k, φ_{k+1}).
         let mut l = DMatrix::<f64>::zeros(6, n_p + 6);
         l.view_mut((0, 0), (6, n_p)).copy_from(&(-&next.b));

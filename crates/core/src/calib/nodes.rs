@@ -130,6 +130,20 @@ impl Stretch {
         })
     }
 
+    /// The stretch with its velocity rows unweighted: the attitude carried
+    /// through it still constrains, the velocity step does not (a motion
+    /// whose velocity the model cannot follow, `Grade::trusts_motion_velocity`;
+    /// what `SystematicFilter::forget_velocity` does in the filter). The
+    /// attitude rows keep their own weight, the inverse of Q's attitude
+    /// block: the velocity rows marginalised out.
+    pub fn without_velocity(mut self) -> Option<Self> {
+        let q_phi = self.q.fixed_view::<3, 3>(0, 0).into_owned();
+        let w_phi = q_phi.try_inverse()?;
+        self.w.fill(0.0);
+        self.w.view_mut((0, 0), (3, 3)).copy_from(&w_phi);
+        Some(self)
+    }
+
     /// Writes the attitude columns of L from column `at`: −A's attitude
     /// columns for φ_k, then the identity on the attitude rows for
     /// φ_{k+1}.

@@ -288,11 +288,22 @@ impl GapProblem {
             ctx.scan.duration_s(),
             &prior_sigma(ctx.priors()),
         );
+        // Across a motion whose velocity the model cannot follow (below
+        // navigation grade, turned by hand) only the attitude carried
+        // through it is data, as in the filter and the cross-check: on
+        // imu_tk's Xsens recording the hand motions' velocity steps made
+        // the gap 730 times its expectation, and the workflow named a
+        // drift and a lever arm for a g-sensitivity.
+        let forgets = !ctx.grade.trusts_motion_velocity();
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         for k in 0..k_nodes - 1 {
             let t = nodes.t[k + 1] - nodes.t[k];
-            let model = Stretch::new(&f, &qc, t, &nodes.v[k], &nodes.v[k + 1])
-                .ok_or_else(|| DiagnoseError::Numerical("singular process noise".into()))?;
+            let mut model = Stretch::new(&f, &qc, t, &nodes.v[k], &nodes.v[k + 1]);
+            if forgets && nodes.segment[k] != nodes.segment[k + 1] {
+                model = model.and_then(Stretch::without_velocity);
+            }
+            let model =
+                model.ok_or_else(|| DiagnoseError::Numerical("singular process noise".into()))?;
             stretches.push(GapStretch {
                 model,
                 b: -&nodes.b[k + 1],
