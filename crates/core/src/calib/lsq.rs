@@ -136,9 +136,9 @@ fn solve(
         let mut stretch = Stretch::new(f, &qc, next.t, &nodes[k].v, &next.v);
         // Across a motion whose velocity the model cannot follow (a unit
         // below navigation grade turned by hand) the filter forgets the
-        // velocity error; so does this: only the attitude carried through
-        // it is an observation. Trusting it made every accelerometer
-        // parameter of imu_tk's Xsens recording disagree, by up to 580σ.
+        // velocity error; so does the check of its mechanics: only the
+        // attitude carried through it is an observation. Trusting it
+        // flagged 1 of 20 clean simulated consumer runs, forgetting it 0.
         if next.dwell != nodes[k].dwell && !ctx.grade.trusts_motion_velocity() {
             stretch = stretch.and_then(Stretch::without_velocity);
         }

@@ -120,9 +120,10 @@ pub(super) fn thermal_span_warning(ctx: &PassContext) -> Option<String> {
 /// the gaps bridged, too few dwells.
 pub(super) fn run_warnings(ctx: &PassContext, cross_check: Option<&CrossCheck>) -> Vec<String> {
     let scan = ctx.scan;
-    // One warning for every flagged parameter: on a unit with an effect
-    // the model lacks they run to twenty (imu_tk's Xsens recording under
-    // the base model), and twenty lines of one sentence hide the others.
+    // A single warning names every flagged parameter: on a unit with an
+    // effect the model lacks they run to twenty (imu_tk's Xsens recording
+    // under the base model), and twenty lines of one sentence would hide
+    // the other warnings.
     let mut warnings: Vec<String> = cross_check
         .filter(|c| !c.flagged.is_empty())
         .map(|c| {

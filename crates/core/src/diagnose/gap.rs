@@ -290,10 +290,9 @@ impl GapProblem {
         );
         // Across a motion whose velocity the model cannot follow (below
         // navigation grade, turned by hand) only the attitude carried
-        // through it is data, as in the filter and the cross-check: on
-        // imu_tk's Xsens recording the hand motions' velocity steps made
-        // the gap 730 times its expectation, and the workflow named a
-        // drift and a lever arm for a g-sensitivity.
+        // through it is data, as in the filter and the cross-check
+        // (`Grade::trusts_motion_velocity`): the gap holds the same model
+        // of the run as the calibration it starts from.
         let forgets = !ctx.grade.trusts_motion_velocity();
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         for k in 0..k_nodes - 1 {
