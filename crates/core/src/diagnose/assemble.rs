@@ -48,6 +48,8 @@ pub(crate) fn report(inp: Inputs, sel: Selection) -> DiagnoseReport {
             "the run's turns are not described as a scheme: {why}"
         ));
     }
+    let left = &sel.current;
+    warnings.extend(sel.verdict.beyond_the_gap_model(left.chi2, left.dof));
     let steps: Vec<DiagnoseStep> = sel.steps.iter().map(|s| step(&inp, &sel, s)).collect();
     let final_expl = explanation(lib, inp.params, inp.prior, &sel.current, &sel.named);
     let calibration = final_calibration(&inp, &sel, &final_expl.params);
