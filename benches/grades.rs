@@ -75,15 +75,17 @@ struct Flags {
 impl Flags {
     fn from_env() -> Self {
         let args: Vec<String> = std::env::args().collect();
-        let grade = args
-            .iter()
-            .position(|a| a == "--grade")
-            .and_then(|i| args.get(i + 1))
-            .map(|g| match g.as_str() {
-                "tactical" => Grade::Tactical,
-                "consumer" => Grade::Consumer,
-                other => panic!("--grade {other}: tactical or consumer"),
-            });
+        let has = |flag: &str| args.iter().any(|a| a == flag);
+        // The argument after `flag`.
+        let value = |flag: &str| {
+            let i = args.iter().position(|a| a == flag)?;
+            args.get(i + 1).map(String::as_str)
+        };
+        let grade = value("--grade").map(|g| match g {
+            "tactical" => Grade::Tactical,
+            "consumer" => Grade::Consumer,
+            other => panic!("--grade {other}: tactical or consumer"),
+        });
         Flags {
             seeds: args
                 .iter()
@@ -92,29 +94,17 @@ impl Flags {
                 .find_map(|a| a.parse().ok())
                 .unwrap_or(20),
             grades: grade.map_or(vec![Grade::Tactical, Grade::Consumer], |g| vec![g]),
-            per_seed: args.iter().any(|a| a == "--per-seed"),
-            nominal_heading: args.iter().any(|a| a == "--nominal-heading"),
-            white: args.iter().any(|a| a == "--white"),
-            no_pulses: args.iter().any(|a| a == "--no-pulses"),
-            known_noise: args.iter().any(|a| a == "--known-noise"),
-            only: args
-                .iter()
-                .position(|a| a == "--only")
-                .and_then(|i| args.get(i + 1))
-                .and_then(|v| v.parse().ok()),
-            g_sensitivity: args
-                .iter()
-                .position(|a| a == "--g-sensitivity")
-                .and_then(|i| args.get(i + 1))
-                .and_then(|v| v.parse().ok()),
-            carry_g: args.iter().any(|a| a == "--carry-g"),
-            diagnose: args.iter().any(|a| a == "--diagnose"),
-            cross_check: args.iter().any(|a| a == "--cross-check"),
-            model: args
-                .iter()
-                .position(|a| a == "--model")
-                .and_then(|i| args.get(i + 1))
-                .map(|m| m.parse().expect("--model base+<effect>…")),
+            per_seed: has("--per-seed"),
+            nominal_heading: has("--nominal-heading"),
+            white: has("--white"),
+            no_pulses: has("--no-pulses"),
+            known_noise: has("--known-noise"),
+            only: value("--only").and_then(|v| v.parse().ok()),
+            g_sensitivity: value("--g-sensitivity").and_then(|v| v.parse().ok()),
+            carry_g: has("--carry-g"),
+            diagnose: has("--diagnose"),
+            cross_check: has("--cross-check"),
+            model: value("--model").map(|m| m.parse().expect("--model base+<effect>…")),
         }
     }
 }
@@ -355,7 +345,8 @@ fn diagnose_grade(grade: Grade, flags: &Flags) {
         };
         *verdicts.entry(verdict).or_default() += 1;
     }
-    println!("{grade}: diagnosis verdicts over {} seeds", flags.seeds);
+    let runs: usize = verdicts.values().sum();
+    println!("{grade}: diagnosis verdicts over {runs} runs");
     for (verdict, n) in verdicts {
         println!("  {n:>3}  {verdict}");
     }

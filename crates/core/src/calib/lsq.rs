@@ -133,17 +133,12 @@ fn solve(
     let qc = white_noise_density(ctx.arw, ctx.vrw);
     for k in 0..k_nodes - 1 {
         let next = &nodes[k + 1];
-        let mut stretch = Stretch::new(f, &qc, next.t, &nodes[k].v, &next.v);
-        // Across a motion whose velocity the model cannot follow (a unit
-        // below navigation grade turned by hand) the filter forgets the
-        // velocity error; so does the check of its mechanics: only the
-        // attitude carried through it is an observation. Trusting it
-        // flagged 1 of 20 clean simulated consumer runs, forgetting it 0.
-        if next.dwell != nodes[k].dwell && !ctx.grade.trusts_motion_velocity() {
-            stretch = stretch.and_then(Stretch::without_velocity);
-        }
-        let stretch =
-            stretch.ok_or_else(|| CalibError::Numerical("singular process noise".into()))?;
+        // The filter forgets the velocity across a hand motion below
+        // navigation grade; so does this check of its mechanics.
+        let crosses_motion = next.dwell != nodes[k].dwell;
+        let stretch = Stretch::new(f, &qc, next.t, &nodes[k].v, &next.v)
+            .and_then(|s| s.observed(ctx.grade, crosses_motion))
+            .ok_or_else(|| CalibError::Numerical("singular process noise".into()))?;
         // r = L u + d over the unknowns (p, φ_k, φ_{k+1}).
         let mut l = DMatrix::<f64>::zeros(6, n_p + 6);
         l.view_mut((0, 0), (6, n_p)).copy_from(&(-&next.b));

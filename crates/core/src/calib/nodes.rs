@@ -12,7 +12,7 @@ use super::segment::RunSegment;
 use super::walk::{walk, PassContext, WindowEnd};
 use crate::estimation::effect_columns::EffectTerms;
 use crate::estimation::filter::{process_noise, transition};
-use crate::model::Compensator;
+use crate::model::{Compensator, Grade};
 
 /// Stretches each dwell is cut into.
 const STRETCHES_PER_DWELL: usize = 4;
@@ -130,15 +130,21 @@ impl Stretch {
         })
     }
 
-    /// The stretch with its velocity rows unweighted: the attitude carried
-    /// through it still constrains, the velocity step does not (a motion
-    /// whose velocity the model cannot follow, `Grade::trusts_motion_velocity`;
-    /// what `SystematicFilter::forget_velocity` does in the filter). The
-    /// attitude rows keep their own weight, the inverse of Q's attitude
-    /// block: the velocity rows marginalised out.
-    pub fn without_velocity(mut self) -> Option<Self> {
-        let q_phi = self.q.fixed_view::<3, 3>(0, 0).into_owned();
-        let w_phi = q_phi.try_inverse()?;
+    /// The stretch as a unit of `grade` is observed over it: across a
+    /// motion (`crosses_motion`: its nodes in different segments) whose
+    /// velocity the model cannot follow (`Grade::trusts_motion_velocity`:
+    /// below navigation grade, turned by hand), the velocity step is no
+    /// observation and the attitude carried through it still is, as
+    /// `SystematicFilter::forget_velocity` has it in the filter. The
+    /// attitude rows then keep their own weight, the inverse of Q's
+    /// attitude block: the velocity rows marginalised out. Trusting the
+    /// step in the cross-check flagged 1 of 20 clean simulated consumer
+    /// runs, forgetting it 0. `None` when a weight is singular.
+    pub fn observed(mut self, grade: Grade, crosses_motion: bool) -> Option<Self> {
+        if !crosses_motion || grade.trusts_motion_velocity() {
+            return Some(self);
+        }
+        let w_phi = self.q.fixed_view::<3, 3>(0, 0).into_owned().try_inverse()?;
         self.w.fill(0.0);
         self.w.view_mut((0, 0), (3, 3)).copy_from(&w_phi);
         Some(self)

@@ -288,21 +288,16 @@ impl GapProblem {
             ctx.scan.duration_s(),
             &prior_sigma(ctx.priors()),
         );
-        // Across a motion whose velocity the model cannot follow (below
-        // navigation grade, turned by hand) only the attitude carried
-        // through it is data, as in the filter and the cross-check
-        // (`Grade::trusts_motion_velocity`): the gap holds the same model
-        // of the run as the calibration it starts from.
-        let forgets = !ctx.grade.trusts_motion_velocity();
+        // The gap holds the same model of the run as the calibration it
+        // starts from: a hand motion's velocity forgotten below
+        // navigation grade (`Stretch::observed`).
         let mut stretches = Vec::with_capacity(k_nodes - 1);
         for k in 0..k_nodes - 1 {
             let t = nodes.t[k + 1] - nodes.t[k];
-            let mut model = Stretch::new(&f, &qc, t, &nodes.v[k], &nodes.v[k + 1]);
-            if forgets && nodes.segment[k] != nodes.segment[k + 1] {
-                model = model.and_then(Stretch::without_velocity);
-            }
-            let model =
-                model.ok_or_else(|| DiagnoseError::Numerical("singular process noise".into()))?;
+            let crosses_motion = nodes.segment[k] != nodes.segment[k + 1];
+            let model = Stretch::new(&f, &qc, t, &nodes.v[k], &nodes.v[k + 1])
+                .and_then(|s| s.observed(ctx.grade, crosses_motion))
+                .ok_or_else(|| DiagnoseError::Numerical("singular process noise".into()))?;
             stretches.push(GapStretch {
                 model,
                 b: -&nodes.b[k + 1],
