@@ -28,9 +28,14 @@
 //! - `--per-seed`: each seed's figures;
 //! - `--vs-unquantized`: each run calibrated again without its pulses
 //!   (the same draws otherwise), and the largest σ ratio reported;
-//! - `--no-gyro-pulses`, `--no-vibration`: seed k's noise without its
-//!   gyro pulses or without its vibration;
-//! - `--show-model`: each seed's noise model as the calibration reports it.
+//! - `--no-gyro-pulses`, `--no-vibration`, `--no-random-walk`,
+//!   `--no-instability`: seed k's noise without its gyro pulses, its
+//!   vibration, both triads' bias random walk or their bias instability;
+//! - `--show-model`: each seed's noise model as the calibration reports it;
+//! - `--vs-truth-noise`: the fitted noise model tested against the
+//!   simulated one over the fit's own pass (`noise_reference`: the
+//!   likelihood ratio and whether the run can tell them apart), with each
+//!   seed's range of σ / plan's σ beside it under `--vs-plan`.
 //!
 //! Always printed: per family the worst |err| against the seed paper's
 //! Table 1 accuracy, and the noise model's source.
@@ -45,6 +50,7 @@ use std::collections::BTreeMap;
 use rand::{Rng, SeedableRng};
 
 use sinscal_core::calib::plan::{plan, PlanInput};
+use sinscal_core::calib::result::NoiseReferenceTest;
 use sinscal_core::calib::sources::calibrate_in_memory;
 use sinscal_core::calib::{CalibrationResult, EstimateOptions, ModelCheck, NoiseDensity};
 use sinscal_core::model::effects::LeverArms;
@@ -73,6 +79,8 @@ struct Flags {
     white: bool,
     no_gyro_pulses: bool,
     no_vibration: bool,
+    no_random_walk: bool,
+    no_instability: bool,
     /// s.
     dwell: f64,
     /// Hz.
@@ -84,6 +92,7 @@ struct Flags {
     per_seed: bool,
     show_model: bool,
     vs_unquantized: bool,
+    vs_truth_noise: bool,
 }
 
 impl Flags {
@@ -102,6 +111,8 @@ impl Flags {
             white: switch("--white"),
             no_gyro_pulses: switch("--no-gyro-pulses"),
             no_vibration: switch("--no-vibration"),
+            no_random_walk: switch("--no-random-walk"),
+            no_instability: switch("--no-instability"),
             dwell: value(&args, "--dwell").unwrap_or(600.0),
             rate: value(&args, "--rate").unwrap_or(100.0),
             lever_arm: value(&args, "--lever-arm"),
@@ -111,6 +122,7 @@ impl Flags {
             per_seed: switch("--per-seed"),
             show_model: switch("--show-model"),
             vs_unquantized: switch("--vs-unquantized"),
+            vs_truth_noise: switch("--vs-truth-noise"),
         }
     }
 
@@ -183,6 +195,14 @@ fn sim_config(seed: u64, flags: &Flags) -> SimConfig {
     if flags.no_gyro_pulses {
         noise.gyro_quantum_arcsec = 0.0;
     }
+    if flags.no_random_walk {
+        noise.gyro_rrw_deg_h_rt_h = 0.0;
+        noise.accel_rw_ug_rt_h = 0.0;
+    }
+    if flags.no_instability {
+        noise.gyro_bias_instability_deg_h = 0.0;
+        noise.accel_bias_instability_ug = 0.0;
+    }
     if flags.no_vibration {
         noise.vibration = None;
     }
@@ -210,6 +230,9 @@ fn estimate_options(flags: &Flags, noise: &Noise) -> EstimateOptions {
     };
     if flags.no_fit {
         opts.fit_noise = false;
+    }
+    if flags.vs_truth_noise {
+        opts.noise_reference = Some(NoiseDensity::from(noise));
     }
     if flags.known_noise {
         opts.noise = Some(NoiseDensity::from(noise));
@@ -328,6 +351,9 @@ struct SeedOutcome {
     unquantized: Option<(f64, [f64; FAMILIES])>,
     /// With `--vs-plan`: see [`plan_ratio`].
     plan_ratio: Option<Vec<f64>>,
+    /// With `--vs-truth-noise`: the simulated noise model against the
+    /// fitted one.
+    reference: Option<NoiseReferenceTest>,
     /// The `--per-seed` line.
     line: String,
 }
@@ -361,13 +387,27 @@ fn calibrate_seed(seed: u64, flags: &Flags) -> Option<SeedOutcome> {
     let plan_ratio = flags.vs_plan.then(|| plan_ratio(&cfg, &res));
     let check = res.model_check.as_ref().expect("a model check");
     let scores = scores(&cfg, &res, mean.as_ref());
+    let reference = res.noise_model.as_ref().and_then(|n| n.reference);
+    let mut line = seed_line(seed, &cfg.noise, check, &scores);
+    if let Some(r) = &reference {
+        line.push_str(&format!(
+            " truth's noise: 2ΔlnL {:.1} (marginal {:.1}; 99 % point {:.1}, {} terms)",
+            r.statistic, r.marginal_statistic, r.threshold, r.degrees_of_freedom
+        ));
+    }
+    if let Some(ratios) = &plan_ratio {
+        let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = ratios.iter().copied().fold(0.0, f64::max);
+        line.push_str(&format!(" σ/plan {lo:.2}–{hi:.2}"));
+    }
     Some(SeedOutcome {
         source,
         adequate: check.adequate,
-        line: seed_line(seed, &cfg.noise, check, &scores),
+        line,
         scores,
         unquantized,
         plan_ratio,
+        reference,
     })
 }
 
@@ -385,6 +425,10 @@ struct Tally {
     plan_z2: [f64; FAMILIES],
     sources: BTreeMap<String, usize>,
     inadequate: usize,
+    /// With `--vs-truth-noise`: the seeds tested, those whose run cannot
+    /// tell its fitted noise from the simulated one, and the largest
+    /// statistic.
+    reference: (usize, usize, f64),
 }
 
 impl Tally {
@@ -400,6 +444,7 @@ impl Tally {
             plan_z2: [0.0; FAMILIES],
             sources: BTreeMap::new(),
             inadequate: 0,
+            reference: (0, 0, 0.0),
         }
     }
 
@@ -419,6 +464,14 @@ impl Tally {
         }
         if !o.adequate {
             self.inadequate += 1;
+        }
+        if let Some(r) = &o.reference {
+            let (n, consistent, largest) = self.reference;
+            self.reference = (
+                n + 1,
+                consistent + usize::from(r.consistent),
+                largest.max(r.statistic),
+            );
         }
         for s in &o.scores {
             let fam = s.family;
@@ -440,6 +493,12 @@ impl Tally {
             self.inadequate
         );
         println!("noise model sources: {:?}", self.sources);
+        if flags.vs_truth_noise {
+            let (n, consistent, largest) = self.reference;
+            println!(
+                "the simulated noise model within the run's 99 % likelihood region on {consistent} of {n} seeds (largest 2ΔlnL {largest:.1})"
+            );
+        }
         if flags.vs_unquantized {
             println!("largest σ with pulses / σ without: {:.3}", self.sigma_ratio);
         }

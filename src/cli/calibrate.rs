@@ -47,10 +47,21 @@ pub struct CalibrateArgs {
     /// fitted to it.
     #[arg(long)]
     noise: Option<PathBuf>,
+    /// The noise model held for the unit (the same JSON as `--noise`),
+    /// tested against the run's own fitted model instead of used: the
+    /// result says whether the run's noise is still that model
+    /// (`noise_model.reference`, and a warning when it is not).
+    #[arg(long, conflicts_with = "noise")]
+    noise_reference: Option<PathBuf>,
 }
 
 pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> {
     let noise = a.noise.as_deref().map(read_noise_file).transpose()?;
+    let noise_reference = a
+        .noise_reference
+        .as_deref()
+        .map(read_noise_file)
+        .transpose()?;
     let opts = EstimateOptions {
         estimator: a.estimator,
         cross_check: !a.no_cross_check,
@@ -61,6 +72,7 @@ pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> 
         },
         grade: a.grade,
         noise,
+        noise_reference,
         ..EstimateOptions::default()
     };
     let cancel = AtomicBool::new(false);

@@ -743,6 +743,38 @@ fn calibrate_takes_a_units_known_noise_model() {
             assert!((v / value - 1.0).abs() < 1e-9, "{term}: {v}");
         }
     }
+    // Held instead of given: the run's own model is fitted and the held
+    // one tested against it, over the fit's six terms.
+    stdout_of(
+        sinscal()
+            .arg("calibrate")
+            .arg(out.join("run.bin"))
+            .arg("--noise-reference")
+            .arg(&noise)
+            .arg("--out")
+            .arg(&result_path),
+    );
+    let result: serde_json::Value = read_json(&result_path).unwrap();
+    let model = &result["noise_model"];
+    assert_eq!(model["source"], "fitted", "{model}");
+    let test = &model["reference"];
+    assert_eq!(test["degrees_of_freedom"], 6, "{model}");
+    let (statistic, threshold) = (
+        test["statistic"].as_f64().unwrap(),
+        test["threshold"].as_f64().unwrap(),
+    );
+    assert!(
+        statistic.is_finite() && (16.0..17.5).contains(&threshold),
+        "{test}"
+    );
+    assert_eq!(test["consistent"], statistic <= threshold, "{test}");
+    let both = sinscal()
+        .arg("calibrate")
+        .arg(out.join("run.bin"))
+        .args(["--noise", "n.json", "--noise-reference", "n.json"])
+        .output()
+        .unwrap();
+    assert!(!both.status.success(), "--noise with --noise-reference");
     std::fs::write(
         &noise,
         r#"{"gyro_arw_deg_rt_h": 0.0003, "accel_vrw_ug_rt_hz": 5, "gyro_bias_instabilty_deg_h": 0.002}"#,

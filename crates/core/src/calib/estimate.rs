@@ -326,6 +326,7 @@ fn estimate_from(
         (ctx, est, None)
     };
     let fit_evaluations = fit.as_ref().map(|f| f.evaluations);
+    let reference = fit.as_ref().and_then(|f| f.reference);
     let unsettled = est.unsettled(ctx);
     let (params, effects, passes, mut last) = (est.params, est.effects, est.passes, est.last);
     let cross_check = cross_check_phase(ctx, &params, &effects, &mut last, progress)?;
@@ -389,6 +390,7 @@ fn estimate_from(
             source,
             model: ctx.noise.report(),
             fit_evaluations,
+            reference,
         }),
         segments: scan.segments.clone(),
         gaps: scan.gaps.iter().map(|g| g.report()).collect(),

@@ -20,6 +20,7 @@ pub mod model_check;
 pub(crate) mod nodes;
 pub(crate) mod noise_fit;
 pub(crate) mod noise_measure;
+pub(crate) mod noise_reference;
 pub(crate) mod options;
 pub(crate) mod passes;
 pub mod plan;

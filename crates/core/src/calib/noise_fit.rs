@@ -32,6 +32,7 @@
 //! is half χ²₀ and half χ²₁).
 
 use super::error::CalibError;
+use super::noise_reference::reference_test;
 use super::replay::PassTrace;
 use super::walk::PassContext;
 use crate::estimation::noise_model::{NoiseModel, TriadNoise};
@@ -181,21 +182,28 @@ pub(crate) struct NoiseFit {
     /// The wander terms the run did not resolve, carried at a typical
     /// unit's size for its grade ([`FreeTerm::nominal`]).
     pub assumed: Vec<FreeTerm>,
+    /// The fitted model against the one the caller holds for the unit
+    /// (`EstimateOptions::noise_reference`), when it holds one.
+    pub reference: Option<super::result::NoiseReferenceTest>,
 }
 
 impl NoiseFit {
     /// What the result says of the terms carried at a typical size.
     pub fn warnings(&self, grade: Grade) -> Vec<String> {
-        self.assumed
-            .iter()
-            .map(|t| {
-                let (value, unit) = t.typical(grade);
-                format!(
-                    "the run does not resolve the {}: the filter carries a typical {grade} unit's {value} {unit}, and every σ allows for it",
-                    t.name()
-                )
-            })
-            .collect()
+        let assumed = self.assumed.iter().map(|t| {
+            let (value, unit) = t.typical(grade);
+            format!(
+                "the run does not resolve the {}: the filter carries a typical {grade} unit's {value} {unit}, and every σ allows for it",
+                t.name()
+            )
+        });
+        let reference = self.reference.filter(|r| !r.consistent).map(|r| {
+            format!(
+                "the run's noise is not the model held for the unit (likelihood ratio {:.1} against the 99 % point {:.1} of χ² with {} degrees of freedom): its noise has changed or the held model is wrong; the calibration rests on the run's own",
+                r.statistic, r.threshold, r.degrees_of_freedom
+            )
+        });
+        assumed.chain(reference).collect()
     }
 }
 
@@ -223,9 +231,10 @@ pub(crate) fn fit_noise(
     };
     let filter = |m: &NoiseModel| ctx.filter_for(m, ctx.opts.zupt_sigma_mps, effect_scale);
     let replay = trace.profile(filter(&start), DECIMATION)?;
-    let evaluate = |ln: &[f64]| -> Result<f64, CalibError> {
-        replay.log_likelihood(filter(&space.model_at(ln)))
-    };
+    let evaluate_model =
+        |m: &NoiseModel| -> Result<f64, CalibError> { replay.log_likelihood(filter(m)) };
+    let evaluate = |ln: &[f64]| evaluate_model(&space.model_at(ln));
+    let marginal = |m: &NoiseModel| trace.log_likelihood(filter(m));
     // The white densities alone first, every wander term at zero: the
     // model without wander that the full one must beat.
     let wander: Vec<bool> = free.iter().map(|t| t.may_vanish()).collect();
@@ -236,8 +245,10 @@ pub(crate) fn fit_noise(
         .collect();
     let (still, still_value, mut evaluations) = space.search(&evaluate, &x0, &white)?;
     if !wander.contains(&true) {
+        let model = space.model_at(&still);
         return Ok(NoiseFit {
-            model: space.model_at(&still),
+            reference: reference_test(ctx, &evaluate_model, &marginal, &model, free.len())?,
+            model,
             evaluations,
             assumed: Vec::new(),
         });
@@ -275,6 +286,7 @@ pub(crate) fn fit_noise(
     let mut model = space.model_at(&ln);
     let assumed = carry_unresolved_wander(ctx.grade, free, &mut model);
     Ok(NoiseFit {
+        reference: reference_test(ctx, &evaluate_model, &marginal, &model, free.len())?,
         model,
         evaluations,
         assumed,
@@ -491,6 +503,7 @@ mod tests {
             model: mems,
             evaluations: 0,
             assumed,
+            reference: None,
         };
         let w = fit.warnings(Grade::Consumer);
         assert!(

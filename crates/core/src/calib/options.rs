@@ -42,6 +42,12 @@ pub struct EstimateOptions {
     pub detect: DetectOptions,
     /// The noise model; `None` measures it from the run.
     pub noise: Option<NoiseDensity>,
+    /// The noise model the line holds for the unit (its
+    /// characterisation), when the run's own is still fitted: the result
+    /// then says whether the run's noise is still that model
+    /// (`CalibrationNoise::reference`), a likelihood-ratio test over the
+    /// fit's pass. Unlike `noise`, it changes no estimate.
+    pub noise_reference: Option<NoiseDensity>,
     /// With the noise measured: fit its terms to the run's zero-velocity
     /// observations (`noise_fit`) and calibrate again under the fitted
     /// model.
@@ -76,6 +82,7 @@ impl Default for EstimateOptions {
             zupt_in_motion: false,
             detect: DetectOptions::default(),
             noise: None,
+            noise_reference: None,
             fit_noise: true,
             prior_scale: 4.0,
             grade: None,

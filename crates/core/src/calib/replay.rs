@@ -105,7 +105,6 @@ impl PassTrace {
 
     /// The marginal log-likelihood (parameters integrated out) replayed
     /// under `kf`'s noise model: under the pass's own model, the pass's.
-    #[cfg(test)]
     pub fn log_likelihood(&self, mut kf: SystematicFilter) -> Result<f64, CalibError> {
         for w in &self.windows {
             let b = DMatrix::from_iterator(NAV, self.n_p, w.b.iter().map(|x| *x as f64));

@@ -244,6 +244,34 @@ pub struct CalibrationNoise {
     /// Likelihood evaluations the fit spent (with `fitted`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fit_evaluations: Option<usize>,
+    /// With `fitted` and a model held for the unit
+    /// (`EstimateOptions::noise_reference`): whether this run's noise is
+    /// still that model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference: Option<NoiseReferenceTest>,
+}
+
+/// A likelihood-ratio test of the noise model held for a unit (its
+/// characterisation) against the model fitted to one of its runs, over the
+/// same pass.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NoiseReferenceTest {
+    /// 2 (ln L of the fitted model − ln L of the held one), the
+    /// likelihood the fit maximised (the parameters held at the pass's
+    /// estimate).
+    pub statistic: f64,
+    /// The same with the parameters integrated out instead of held: not
+    /// what the fit maximised, so it may be negative (the held model the
+    /// likelier); a large value here as well rules out that holding the
+    /// parameters at their estimate is what favours the fit.
+    pub marginal_statistic: f64,
+    /// The fit's free terms, the statistic's χ² degrees of freedom.
+    pub degrees_of_freedom: usize,
+    /// The χ² law's 99 % point.
+    pub threshold: f64,
+    /// The statistic is within the threshold: the run cannot tell its
+    /// noise from the held model.
+    pub consistent: bool,
 }
 
 impl CalibrationResult {
