@@ -247,7 +247,13 @@ pub(crate) fn fit_noise(
     if !wander.contains(&true) {
         let model = space.model_at(&still);
         return Ok(NoiseFit {
-            reference: reference_test(ctx, &evaluate_model, &marginal, &model, free.len())?,
+            reference: reference_test(
+                ctx,
+                &evaluate_model,
+                &marginal,
+                (&model, still_value),
+                free.len(),
+            )?,
             model,
             evaluations,
             assumed: Vec::new(),
@@ -260,6 +266,13 @@ pub(crate) fn fit_noise(
         .map(|(v, w)| if *w { 0.0 } else { *v })
         .collect();
     let (mut ln, mut best, n) = space.search(&evaluate, &x1, &vec![true; free.len()])?;
+    // The likeliest model found with every term free: what a held model is
+    // tested against, whatever terms the tests below then drop.
+    let peak = if best >= still_value {
+        (space.model_at(&ln), best)
+    } else {
+        (space.model_at(&still), still_value)
+    };
     evaluations += n;
     let wander_terms = wander.iter().filter(|w| **w).count();
     if best - still_value < keep_joint_wander_ln_l(wander_terms) {
@@ -286,7 +299,13 @@ pub(crate) fn fit_noise(
     let mut model = space.model_at(&ln);
     let assumed = carry_unresolved_wander(ctx.grade, free, &mut model);
     Ok(NoiseFit {
-        reference: reference_test(ctx, &evaluate_model, &marginal, &model, free.len())?,
+        reference: reference_test(
+            ctx,
+            &evaluate_model,
+            &marginal,
+            (&peak.0, peak.1),
+            free.len(),
+        )?,
         model,
         evaluations,
         assumed,

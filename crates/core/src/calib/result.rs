@@ -256,9 +256,9 @@ pub struct CalibrationNoise {
 /// same pass.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct NoiseReferenceTest {
-    /// 2 (ln L of the fitted model − ln L of the held one), the
-    /// likelihood the fit maximised (the parameters held at the pass's
-    /// estimate).
+    /// 2 (ln L of the likeliest model the fit found, every term free −
+    /// ln L of the held one), the likelihood the fit maximises (the
+    /// parameters held at the pass's estimate).
     pub statistic: f64,
     /// The same with the parameters integrated out instead of held: not
     /// what the fit maximised, so it may be negative (the held model the
