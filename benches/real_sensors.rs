@@ -6,7 +6,8 @@
 //! against its run mean, the truth's `bias_mean_over_run`), the largest
 //! |err/σ|, and the model check's verdicts.
 //!
-//! Run: `cargo bench --bench real_sensors [-- N]` (seeds 1…N, default 20).
+//! Run: `cargo bench --bench real_sensors [-- N]` (seeds 1…N, default 20;
+//! `--first K`: seeds K…K+N−1).
 //!
 //! - `--known-noise`: the filter is given the simulated noise model
 //!   instead of measuring it (what the estimator could do at best);
@@ -69,6 +70,9 @@ fn value<T: std::str::FromStr>(args: &[String], flag: &str) -> Option<T> {
         .and_then(|v| v.parse().ok())
 }
 
+/// The flags followed by a value (not a seed count).
+const VALUE_FLAGS: [&str; 4] = ["--dwell", "--rate", "--lever-arm", "--first"];
+
 /// The bench's command line, read once (see the file's doc).
 struct Flags {
     /// Seeds 1…`seeds`: the first number among the arguments.
@@ -93,6 +97,8 @@ struct Flags {
     show_model: bool,
     vs_unquantized: bool,
     vs_truth_noise: bool,
+    /// The first seed (`--first K`, default 1).
+    first: u64,
 }
 
 impl Flags {
@@ -101,9 +107,9 @@ impl Flags {
         let switch = |flag: &str| args.iter().any(|a| a == flag);
         Flags {
             seeds: args
-                .iter()
-                .skip(1)
-                .find_map(|a| a.parse().ok())
+                .windows(2)
+                .filter(|w| !VALUE_FLAGS.contains(&w[0].as_str()))
+                .find_map(|w| w[1].parse().ok())
                 .unwrap_or(20),
             known_noise: switch("--known-noise"),
             white_model: switch("--white-model"),
@@ -123,6 +129,7 @@ impl Flags {
             show_model: switch("--show-model"),
             vs_unquantized: switch("--vs-unquantized"),
             vs_truth_noise: switch("--vs-truth-noise"),
+            first: value(&args, "--first").unwrap_or(1),
         }
     }
 
@@ -536,7 +543,7 @@ impl Tally {
 fn main() {
     let flags = Flags::from_env();
     let mut tally = Tally::new();
-    for seed in 1..=flags.seeds {
+    for seed in flags.first..flags.first + flags.seeds {
         if let Some(outcome) = calibrate_seed(seed, &flags) {
             tally.add(&outcome);
             if flags.per_seed {
