@@ -149,10 +149,24 @@ fn white_noise_alone_fails_the_check_on_a_wandering_unit() {
 #[test]
 fn a_white_unit_keeps_its_measured_white_model() {
     let cfg = config(Noise::default_navigation_grade(), 3);
-    let res = calibrate_in_memory(&cfg, &options()).unwrap();
+    // A held model is tested only against a fitted one; the result says
+    // it was not.
+    let opts = EstimateOptions {
+        noise_reference: Some(NoiseDensity::white(0.0003, 5.0)),
+        ..options()
+    };
+    let res = calibrate_in_memory(&cfg, &opts).unwrap();
     let noise = res.noise_model.as_ref().unwrap();
     assert_eq!(noise.source, NoiseSource::Measured);
     assert_eq!(noise.fit_evaluations, None);
+    assert_eq!(noise.reference, None);
+    assert!(
+        res.warnings
+            .iter()
+            .any(|w| w.contains("held for the unit was not tested")),
+        "{:?}",
+        res.warnings
+    );
     assert!(noise.model.gyro_quantum_arcsec.iter().all(|q| *q == 0.0));
     assert!(noise
         .model

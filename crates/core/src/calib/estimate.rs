@@ -347,6 +347,17 @@ fn estimate_from(
     };
     if let Some(fit) = &fit {
         findings.warnings.extend(fit.warnings(ctx.grade));
+    } else if opts.noise_reference.is_some() {
+        let how = match source {
+            NoiseSource::Given => "given",
+            NoiseSource::Measured => "white, measured from the dwells",
+            NoiseSource::Fitted => "fitted without a trace",
+        };
+        findings.warnings.push(format!(
+            "the noise model held for the unit was not tested: it is tested against a model \
+             fitted to the run (one whose dwells show pulses or a wandering bias), and this \
+             run's model was {how}"
+        ));
     }
     let parameters = parameter_table(&params, &last, ctx.priors(), &mut findings);
     findings.warnings.extend(thermal_span_warning(ctx));

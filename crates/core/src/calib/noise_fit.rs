@@ -182,8 +182,9 @@ pub(crate) struct NoiseFit {
     /// The wander terms the run did not resolve, carried at a typical
     /// unit's size for its grade ([`FreeTerm::nominal`]).
     pub assumed: Vec<FreeTerm>,
-    /// The fitted model against the one the caller holds for the unit
-    /// (`EstimateOptions::noise_reference`), when it holds one.
+    /// The model the caller holds for the unit
+    /// (`EstimateOptions::noise_reference`), when it holds one, tested
+    /// against the likeliest model the search found.
     pub reference: Option<super::result::NoiseReferenceTest>,
 }
 
