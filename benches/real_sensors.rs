@@ -32,6 +32,11 @@
 //! - `--no-gyro-pulses`, `--no-vibration`, `--no-random-walk`,
 //!   `--no-instability`: seed k's noise without its gyro pulses, its
 //!   vibration, both triads' bias random walk or their bias instability;
+//! - `--gyro-instability B`, `--accel-instability B`, `--gyro-rrw K`,
+//!   `--accel-rw K`, `--vrw V` (deg/h, µg, deg/h/√h, µg/√h, µg/√Hz):
+//!   that term at this size on every seed instead of its draw;
+//!   `--no-pulses`: without pulses on either triad (a single term's
+//!   effect on the fit, alone or dominant);
 //! - `--show-model`: each seed's noise model as the calibration reports it;
 //! - `--vs-truth-noise`: the fitted noise model tested against the
 //!   simulated one over the fit's own pass (`noise_reference`: the
@@ -58,7 +63,11 @@ use sinscal_core::model::effects::LeverArms;
 use sinscal_core::model::params::paper_accuracy;
 use sinscal_core::model::{Effects, ErrorParameters, Group, PARAMETERS};
 use sinscal_core::nav::Site;
-use sinscal_core::sim::{simulate, BiasMean, Noise, Scheme, SimConfig, Vibration};
+use sinscal_core::sim::{simulate, BiasMean, Noise, Scheme, SimConfig};
+
+#[path = "real_sensors/noise.rs"]
+mod noise;
+use noise::{real_noise, HeldTerms};
 
 /// The number of parameter families (`Group::ALL`).
 const FAMILIES: usize = 7;
@@ -71,7 +80,17 @@ fn value<T: std::str::FromStr>(args: &[String], flag: &str) -> Option<T> {
 }
 
 /// The flags followed by a value (not a seed count).
-const VALUE_FLAGS: [&str; 4] = ["--dwell", "--rate", "--lever-arm", "--first"];
+const VALUE_FLAGS: [&str; 9] = [
+    "--dwell",
+    "--rate",
+    "--lever-arm",
+    "--first",
+    "--gyro-instability",
+    "--accel-instability",
+    "--gyro-rrw",
+    "--accel-rw",
+    "--vrw",
+];
 
 /// The bench's command line, read once (see the file's doc).
 struct Flags {
@@ -85,6 +104,7 @@ struct Flags {
     no_vibration: bool,
     no_random_walk: bool,
     no_instability: bool,
+    held: HeldTerms,
     /// s.
     dwell: f64,
     /// Hz.
@@ -119,6 +139,7 @@ impl Flags {
             no_vibration: switch("--no-vibration"),
             no_random_walk: switch("--no-random-walk"),
             no_instability: switch("--no-instability"),
+            held: HeldTerms::from_args(&args),
             dwell: value(&args, "--dwell").unwrap_or(600.0),
             rate: value(&args, "--rate").unwrap_or(100.0),
             lever_arm: value(&args, "--lever-arm"),
@@ -143,34 +164,6 @@ impl Flags {
             "measured"
         }
     }
-}
-
-/// A value log-uniform in [lo, hi].
-fn log_uniform(rng: &mut impl Rng, lo: f64, hi: f64) -> f64 {
-    (lo.ln() + rng.gen::<f64>() * (hi / lo).ln()).exp()
-}
-
-/// Seed k's sensor noise.
-fn real_noise(seed: u64, pulses_only: bool, white: bool) -> Noise {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1000 + seed);
-    let mut n = Noise::default_navigation_grade();
-    if white {
-        return n;
-    }
-    n.gyro_quantum_arcsec = 1.0;
-    n.accel_quantum_mps = 1e-4;
-    if pulses_only {
-        return n;
-    }
-    n.gyro_bias_instability_deg_h = log_uniform(&mut rng, 0.0005, 0.003);
-    n.accel_bias_instability_ug = log_uniform(&mut rng, 1.0, 5.0);
-    n.gyro_rrw_deg_h_rt_h = log_uniform(&mut rng, 0.0001, 0.0005);
-    n.accel_rw_ug_rt_h = log_uniform(&mut rng, 1.0, 3.0);
-    n.vibration = Some(Vibration {
-        rms_ug: 30.0,
-        band_hz: [2.0, 30.0],
-    });
-    n
 }
 
 /// Every accelerometer `arm` off the reference point along its own axis.
@@ -213,6 +206,7 @@ fn sim_config(seed: u64, flags: &Flags) -> SimConfig {
     if flags.no_vibration {
         noise.vibration = None;
     }
+    flags.held.apply(&mut noise);
     SimConfig {
         site: Site::REFERENCE,
         sample_rate_hz: flags.rate,
