@@ -100,10 +100,7 @@ struct Flags {
     white_model: bool,
     pulses_only: bool,
     white: bool,
-    no_gyro_pulses: bool,
     no_vibration: bool,
-    no_random_walk: bool,
-    no_instability: bool,
     held: HeldTerms,
     /// s.
     dwell: f64,
@@ -135,10 +132,7 @@ impl Flags {
             white_model: switch("--white-model"),
             pulses_only: switch("--pulses-only"),
             white: switch("--white"),
-            no_gyro_pulses: switch("--no-gyro-pulses"),
             no_vibration: switch("--no-vibration"),
-            no_random_walk: switch("--no-random-walk"),
-            no_instability: switch("--no-instability"),
             held: HeldTerms::from_args(&args),
             dwell: value(&args, "--dwell").unwrap_or(600.0),
             rate: value(&args, "--rate").unwrap_or(100.0),
@@ -192,17 +186,6 @@ fn sim_config(seed: u64, flags: &Flags) -> SimConfig {
         (ErrorParameters::random(&mut rng), rng.gen::<f64>() * 360.0)
     };
     let mut noise = real_noise(seed, flags.pulses_only, flags.white);
-    if flags.no_gyro_pulses {
-        noise.gyro_quantum_arcsec = 0.0;
-    }
-    if flags.no_random_walk {
-        noise.gyro_rrw_deg_h_rt_h = 0.0;
-        noise.accel_rw_ug_rt_h = 0.0;
-    }
-    if flags.no_instability {
-        noise.gyro_bias_instability_deg_h = 0.0;
-        noise.accel_bias_instability_ug = 0.0;
-    }
     if flags.no_vibration {
         noise.vibration = None;
     }

@@ -36,7 +36,9 @@ pub fn real_noise(seed: u64, pulses_only: bool, white: bool) -> Noise {
 }
 
 /// Terms held at one size on every seed instead of drawn (SPEC §2a's
-/// units: deg/h, µg, deg/h/√h, µg/√h; the VRW µg/√Hz).
+/// units: deg/h, µg, deg/h/√h, µg/√h; the VRW µg/√Hz; the quanta ″ and
+/// m/s): a size given by its flag, else 0 where a `--no-…` switch
+/// removes the term.
 #[derive(Default)]
 pub struct HeldTerms {
     gyro_instability: Option<f64>,
@@ -44,18 +46,22 @@ pub struct HeldTerms {
     gyro_rrw: Option<f64>,
     accel_rw: Option<f64>,
     vrw: Option<f64>,
-    no_pulses: bool,
+    gyro_quantum: Option<f64>,
+    accel_quantum: Option<f64>,
 }
 
 impl HeldTerms {
     pub fn from_args(args: &[String]) -> Self {
+        let removed = |flag: &str| args.iter().any(|a| a == flag).then_some(0.0);
+        let sized = |flag: &str, removing: &str| value(args, flag).or(removed(removing));
         HeldTerms {
-            gyro_instability: value(args, "--gyro-instability"),
-            accel_instability: value(args, "--accel-instability"),
-            gyro_rrw: value(args, "--gyro-rrw"),
-            accel_rw: value(args, "--accel-rw"),
+            gyro_instability: sized("--gyro-instability", "--no-instability"),
+            accel_instability: sized("--accel-instability", "--no-instability"),
+            gyro_rrw: sized("--gyro-rrw", "--no-random-walk"),
+            accel_rw: sized("--accel-rw", "--no-random-walk"),
             vrw: value(args, "--vrw"),
-            no_pulses: args.iter().any(|a| a == "--no-pulses"),
+            gyro_quantum: removed("--no-pulses").or(removed("--no-gyro-pulses")),
+            accel_quantum: removed("--no-pulses"),
         }
     }
 
@@ -69,15 +75,13 @@ impl HeldTerms {
             (self.gyro_rrw, &mut noise.gyro_rrw_deg_h_rt_h),
             (self.accel_rw, &mut noise.accel_rw_ug_rt_h),
             (self.vrw, &mut noise.accel_vrw_ug_rt_hz),
+            (self.gyro_quantum, &mut noise.gyro_quantum_arcsec),
+            (self.accel_quantum, &mut noise.accel_quantum_mps),
         ];
         for (size, term) in held {
             if let Some(size) = size {
                 *term = size;
             }
-        }
-        if self.no_pulses {
-            noise.gyro_quantum_arcsec = 0.0;
-            noise.accel_quantum_mps = 0.0;
         }
     }
 }

@@ -97,13 +97,7 @@ fn a_real_unit_gets_honest_sigma_and_a_quiet_check_under_its_own_noise_model() {
         !test.consistent && test.statistic > test.threshold && test.degrees_of_freedom == 6,
         "seed {seed}: {test:?}"
     );
-    assert!(
-        res.warnings
-            .iter()
-            .any(|w| w.contains("not the model held for the unit")),
-        "{:?}",
-        res.warnings
-    );
+    assert_warns(&res, "not the model held for the unit");
     // The pulses are read exactly from the records.
     for q in noise.model.gyro_quantum_arcsec {
         assert!((q - 1.0).abs() < 1e-6, "seed {seed}: gyro quantum {q}");
@@ -160,13 +154,7 @@ fn a_white_unit_keeps_its_measured_white_model() {
     assert_eq!(noise.source, NoiseSource::Measured);
     assert_eq!(noise.fit_evaluations, None);
     assert_eq!(noise.reference, None);
-    assert!(
-        res.warnings
-            .iter()
-            .any(|w| w.contains("held for the unit was not tested")),
-        "{:?}",
-        res.warnings
-    );
+    assert_warns(&res, "held for the unit was not tested");
     assert!(noise.model.gyro_quantum_arcsec.iter().all(|q| *q == 0.0));
     assert!(noise
         .model
@@ -178,4 +166,13 @@ fn a_white_unit_keeps_its_measured_white_model() {
     }
     assert!(res.model_check.as_ref().unwrap().adequate);
     assert!(largest(&z_scores(&cfg, &res)) < 4.5);
+}
+
+/// One of the result's warnings says `text`.
+fn assert_warns(res: &CalibrationResult, text: &str) {
+    assert!(
+        res.warnings.iter().any(|w| w.contains(text)),
+        "no warning says {text:?}: {:?}",
+        res.warnings
+    );
 }

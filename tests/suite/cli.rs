@@ -721,16 +721,20 @@ fn calibrate_takes_a_units_known_noise_model() {
     )
     .unwrap();
     let result_path = dir.path().join("result.json");
-    stdout_of(
-        sinscal()
-            .arg("calibrate")
-            .arg(out.join("run.bin"))
-            .arg("--noise")
-            .arg(&noise)
-            .arg("--out")
-            .arg(&result_path),
-    );
-    let result: serde_json::Value = read_json(&result_path).unwrap();
+    // The run calibrated with the noise file under `flag`: its result.
+    let calibrated_with = |flag: &str| -> serde_json::Value {
+        stdout_of(
+            sinscal()
+                .arg("calibrate")
+                .arg(out.join("run.bin"))
+                .arg(flag)
+                .arg(&noise)
+                .arg("--out")
+                .arg(&result_path),
+        );
+        read_json(&result_path).unwrap()
+    };
+    let result = calibrated_with("--noise");
     let model = &result["noise_model"];
     assert_eq!(model["source"], "given", "{model}");
     for (term, value) in [
@@ -745,16 +749,7 @@ fn calibrate_takes_a_units_known_noise_model() {
     }
     // Held instead of given: the run's own model is fitted and the held
     // one tested against it, over the fit's six terms.
-    stdout_of(
-        sinscal()
-            .arg("calibrate")
-            .arg(out.join("run.bin"))
-            .arg("--noise-reference")
-            .arg(&noise)
-            .arg("--out")
-            .arg(&result_path),
-    );
-    let result: serde_json::Value = read_json(&result_path).unwrap();
+    let result = calibrated_with("--noise-reference");
     let model = &result["noise_model"];
     assert_eq!(model["source"], "fitted", "{model}");
     let test = &model["reference"];
