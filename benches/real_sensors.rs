@@ -26,6 +26,9 @@
 //! - `--paper-truth`: the paper's parameters and heading 123° on every
 //!   seed (the reference scenario) instead of random truths and headings;
 //! - `--no-fit`: the measured noise model stands (no likelihood fit);
+//!   `--fit-unseen-wander`: a white model the dwells measured is fitted
+//!   too when the run's innovations ask for wander
+//!   (`EstimateOptions::fit_unseen_wander`);
 //! - `--per-seed`: each seed's figures;
 //! - `--vs-unquantized`: each run calibrated again without its pulses
 //!   (the same draws otherwise), and the largest σ ratio reported;
@@ -110,6 +113,7 @@ struct Flags {
     vs_plan: bool,
     paper_truth: bool,
     no_fit: bool,
+    fit_unseen_wander: bool,
     per_seed: bool,
     show_model: bool,
     vs_unquantized: bool,
@@ -140,6 +144,7 @@ impl Flags {
             vs_plan: switch("--vs-plan"),
             paper_truth: switch("--paper-truth"),
             no_fit: switch("--no-fit"),
+            fit_unseen_wander: switch("--fit-unseen-wander"),
             per_seed: switch("--per-seed"),
             show_model: switch("--show-model"),
             vs_unquantized: switch("--vs-unquantized"),
@@ -215,6 +220,7 @@ fn estimate_options(flags: &Flags, noise: &Noise) -> EstimateOptions {
     if flags.no_fit {
         opts.fit_noise = false;
     }
+    opts.fit_unseen_wander = flags.fit_unseen_wander;
     if flags.vs_truth_noise {
         opts.noise_reference = Some(NoiseDensity::from(noise));
     }

@@ -53,6 +53,13 @@ pub struct CalibrateArgs {
     /// (`noise_model.reference`, and a warning when it is not).
     #[arg(long, conflicts_with = "noise")]
     noise_reference: Option<PathBuf>,
+    /// Fit the noise to the run even where its dwells show white noise
+    /// alone, when its innovations ask for wander (a bias random walk a
+    /// dwell cannot show). Off by default, since a missing effect asks for
+    /// wander too: use it where the discrepancy workflow named no effect
+    /// for a failed check whose result proposed it.
+    #[arg(long, conflicts_with = "noise")]
+    fit_unseen_wander: bool,
 }
 
 pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> {
@@ -73,6 +80,7 @@ pub fn run_calibrate(a: CalibrateArgs, meta: RunMetadata) -> anyhow::Result<()> 
         grade: a.grade,
         noise,
         noise_reference,
+        fit_unseen_wander: a.fit_unseen_wander,
         ..EstimateOptions::default()
     };
     let cancel = AtomicBool::new(false);

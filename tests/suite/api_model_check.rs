@@ -114,3 +114,95 @@ async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
     assert_eq!(reviews, ["clear", "needs_review"], "{history}");
     app.stop().await;
 }
+
+/// A unit whose bias walks (0.0003 deg/h/√h, 3 µg/√h) but whose dwells
+/// show white noise: its check fails and its result proposes the wander.
+/// An engineer asks for the calibration again with the wander fitted
+/// (`POST /runs/{id}/calibrate`, `{"fit_unseen_wander": true}`): the new
+/// result's noise model is fitted and its check is quiet. Bodies that are
+/// not that object are refused naming why.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_run_calibrated_again_fits_the_wander_its_result_proposed() {
+    let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
+    let mut cfg = model_check_run(2, Effects::none());
+    cfg.scheme = sinscal_core::sim::Scheme::builtin("ten-position-9+9", 200.0).unwrap();
+    cfg.noise.gyro_rrw_deg_h_rt_h = 0.0003;
+    cfg.noise.accel_rw_ug_rt_h = 3.0;
+    let run_id = upload_and_calibrate(&app, "RLG-MC3", &cfg).await;
+    let result = app.get_result(&run_id).await;
+    assert_eq!(result["model_check"]["adequate"], false);
+    assert_eq!(result["noise_model"]["source"], "measured");
+    let proposes = |r: &Value, text: &str| {
+        r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains(text))
+    };
+    assert!(
+        proposes(&result, "--fit-unseen-wander"),
+        "{}",
+        result["warnings"]
+    );
+
+    let calibrate = |body: &'static str, content_type: &'static str| {
+        let req = app
+            .http
+            .post(app.url(&format!("/runs/{run_id}/calibrate")))
+            .bearer_auth(app.admin.clone())
+            .header("content-type", content_type)
+            .body(body);
+        async move { req.send().await.unwrap() }
+    };
+    for (body, content_type, status, says) in [
+        (
+            r#"{"fit_unseen_wander": "yes"}"#,
+            "application/json",
+            422,
+            "fit_unseen_wander",
+        ),
+        (
+            r#"{"fit_wander": true}"#,
+            "application/json",
+            422,
+            "fit_wander",
+        ),
+        ("[true]", "application/json", 422, "JSON object"),
+        (
+            "fit_unseen_wander=true",
+            "text/plain",
+            400,
+            "application/json",
+        ),
+    ] {
+        let r = calibrate(body, content_type).await;
+        let got = r.status().as_u16();
+        let problem: Value = r.json().await.unwrap();
+        assert_eq!(got, status, "{body}: {problem}");
+        assert!(
+            problem["detail"].as_str().unwrap_or("").contains(says),
+            "{body}: {problem}"
+        );
+    }
+    let r = calibrate(r#"{"fit_unseen_wander": true}"#, "application/json").await;
+    assert_eq!(r.status(), StatusCode::ACCEPTED);
+    let job: Value = r.json().await.unwrap();
+    let done = app
+        .wait_job(job["id"].as_str().unwrap(), Duration::from_secs(300))
+        .await;
+    assert_eq!(done["state"], "succeeded", "{done}");
+    let result = app.get_result(&run_id).await;
+    assert_eq!(result["noise_model"]["source"], "fitted");
+    assert_eq!(
+        result["model_check"]["adequate"], true,
+        "{}",
+        result["model_check"]
+    );
+    assert!(
+        proposes(&result, "fitted to the run, as asked"),
+        "{}",
+        result["warnings"]
+    );
+    assert_eq!(app.get_run(&run_id).await["review"], "clear");
+    app.stop().await;
+}

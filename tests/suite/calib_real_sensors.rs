@@ -168,6 +168,50 @@ fn a_white_unit_keeps_its_measured_white_model() {
     assert!(largest(&z_scores(&cfg, &res)) < 4.5);
 }
 
+/// A unit whose only §2a term is a bias random walk (the 0.0003
+/// deg/h/√h and 3 µg/√h): its dwells show white noise alone, and over the
+/// run the walk fails the white model's check. By default the check stays
+/// failed (a missing effect asks for wander too) and the result says what
+/// wander would explain it; asked to fit it, the calibration does, and the
+/// check is quiet with honest σ.
+#[test]
+fn a_bias_walk_the_dwells_do_not_show_is_proposed_then_fitted_when_asked() {
+    let mut walking = Noise::default_navigation_grade();
+    walking.gyro_rrw_deg_h_rt_h = 0.0003;
+    walking.accel_rw_ug_rt_h = 3.0;
+    let cfg = config(walking, 2);
+    let res = calibrate_in_memory(&cfg, &options()).unwrap();
+    let noise = res.noise_model.as_ref().unwrap();
+    assert_eq!(noise.source, NoiseSource::Measured);
+    let check = res.model_check.as_ref().unwrap();
+    assert!(!check.adequate, "{}", check.summary);
+    assert_warns(&res, "ask for wander its dwells do not show");
+    assert_warns(&res, "--fit-unseen-wander");
+
+    let opts = EstimateOptions {
+        fit_unseen_wander: true,
+        ..options()
+    };
+    let res = calibrate_in_memory(&cfg, &opts).unwrap();
+    let noise = res.noise_model.as_ref().unwrap();
+    assert_eq!(noise.source, NoiseSource::Fitted);
+    assert!(
+        noise.model.accel_rw_ug_rt_h.iter().all(|k| *k > 0.0),
+        "{:?}",
+        noise.model
+    );
+    let check = res.model_check.as_ref().unwrap();
+    assert!(check.adequate, "{}", check.summary);
+    assert_warns(&res, "fitted to the run, as asked");
+    let z = z_scores(&cfg, &res);
+    let rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
+    assert!(
+        (0.4..1.8).contains(&rms) && largest(&z) < 4.5,
+        "RMS err/σ {rms:.2}, largest {:.2}, {z:.2?}",
+        largest(&z)
+    );
+}
+
 /// One of the result's warnings says `text`.
 fn assert_warns(res: &CalibrationResult, text: &str) {
     assert!(

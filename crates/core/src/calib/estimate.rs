@@ -13,6 +13,7 @@ use super::error::CalibError;
 use super::kf_pass::{effect_terms, filter_pass, kf_pass, Pass};
 use super::noise_fit::{fit_noise, FreeTerm, NoiseFit};
 use super::noise_measure::measure_noise;
+use super::noise_screen::{may_wander_unseen, screen_unseen_wander};
 use super::options::EstimateOptions;
 use super::passes::{lsq_as_pass, run_passes, Estimate};
 use super::prescan::{first_dwell, scan_run};
@@ -312,10 +313,22 @@ fn estimate_from(
     let span = share - (lo - 0.05);
     // A model to be fitted needs the last pass's trace: every pass keeps
     // one (each replaces the one before), so no pass is run only for it.
-    let source = noise_source(ctx);
-    // (An in-run thermal one is fitted over a pass of its own.)
-    let traced = source == NoiseSource::Fitted && !opts.model.has(Effect::Thermal);
-    let est = run_passes(ctx, head, budget, min_passes, traced, (lo, span), progress)?;
+    let mut source = noise_source(ctx);
+    // A white model's last pass is kept too, for the screen below. (An
+    // in-run thermal model is fitted over a pass of its own.)
+    let screened = source == NoiseSource::Measured && may_wander_unseen(ctx);
+    let traced = (source == NoiseSource::Fitted || screened) && !opts.model.has(Effect::Thermal);
+    let mut est = run_passes(ctx, head, budget, min_passes, traced, (lo, span), progress)?;
+    let unseen = if screened {
+        screen_unseen_wander(ctx, &est)?
+    } else {
+        None
+    };
+    if unseen.is_some() && opts.fit_unseen_wander {
+        source = NoiseSource::Fitted;
+    } else if source != NoiseSource::Fitted {
+        est.last.trace = None;
+    }
     let fitted_ctx;
     let (ctx, est, fit) = if source == NoiseSource::Fitted {
         let range = (0.05 + 0.5 * share, 0.5 * share);
@@ -345,6 +358,9 @@ fn estimate_from(
         warnings: unsettled.into_iter().collect(),
         ..Findings::default()
     };
+    findings
+        .warnings
+        .extend(unseen.map(|u| u.warning(source == NoiseSource::Fitted)));
     if let Some(fit) = &fit {
         findings.warnings.extend(fit.warnings(ctx.grade));
     } else if opts.noise_reference.is_some() {
@@ -465,9 +481,10 @@ fn cross_check_phase(
 /// Whether the noise model the passes ran under stands or is fitted to
 /// the run. A given model stands. A measured one is fitted when it holds
 /// any §2a term (pulses or a wandering bias): the dwells' curves only start
-/// those. A white model stands even when its check fails: a misfit the
-/// white noise does not explain is what the check is for, and a fit would
-/// read a missing effect as noise.
+/// those. A white one stands unless the run's innovations ask for wander
+/// (`unseen_wander`, judged after the passes) and a fit of it is asked
+/// for (`fit_unseen_wander`): a missing effect asks for wander too, and a
+/// fit would read it as noise.
 fn noise_source(ctx: &PassContext) -> NoiseSource {
     let opts = ctx.opts;
     if opts.noise.is_some() {

@@ -21,6 +21,7 @@ pub(crate) mod nodes;
 pub(crate) mod noise_fit;
 pub(crate) mod noise_measure;
 pub(crate) mod noise_reference;
+mod noise_screen;
 pub(crate) mod options;
 pub(crate) mod passes;
 pub mod plan;

@@ -65,7 +65,7 @@ impl FreeTerm {
         FreeTerm::AccelRandomWalk,
     ];
 
-    fn values(self, m: &mut NoiseModel) -> &mut [f64; 3] {
+    pub(super) fn values(self, m: &mut NoiseModel) -> &mut [f64; 3] {
         use FreeTerm::*;
         let triad: &mut TriadNoise = match self {
             GyroWhite | GyroInstability | GyroRandomWalk => &mut m.gyro,
@@ -82,7 +82,7 @@ impl FreeTerm {
     /// unit's size at `grade` (the search moves it by orders of magnitude
     /// if the run says so, but from a navigation unit's 0.001 deg/h a
     /// MEMS gyro's 10 deg/h is more than its evaluations can climb).
-    fn nominal(self, grade: Grade) -> f64 {
+    pub(super) fn nominal(self, grade: Grade) -> f64 {
         use crate::model::units::{DEG_PER_H, DEG_PER_RT_H, HOUR, UG, UG_PER_RT_HZ};
         let per_rt_h = 1.0 / HOUR.sqrt();
         let (v, _) = self.typical(grade);
@@ -98,7 +98,7 @@ impl FreeTerm {
 
     /// [`FreeTerm::nominal`] in the units a datasheet gives, and those
     /// units.
-    fn typical(self, grade: Grade) -> (f64, &'static str) {
+    pub(super) fn typical(self, grade: Grade) -> (f64, &'static str) {
         let [gyro_b, gyro_k, accel_b, accel_k] = match grade {
             Grade::Navigation => [0.001, 0.0003, 2.0, 2.0],
             Grade::Tactical => [0.3, 0.1, 20.0, 20.0],
@@ -115,7 +115,7 @@ impl FreeTerm {
     }
 
     /// The term as a result names it.
-    fn name(self) -> &'static str {
+    pub(super) fn name(self) -> &'static str {
         match self {
             FreeTerm::GyroWhite => "gyro angle random walk",
             FreeTerm::AccelWhite => "accelerometer velocity random walk",
@@ -127,7 +127,7 @@ impl FreeTerm {
     }
 
     /// Whether the term may vanish (wander may; white noise never does).
-    fn may_vanish(self) -> bool {
+    pub(super) fn may_vanish(self) -> bool {
         !matches!(self, FreeTerm::GyroWhite | FreeTerm::AccelWhite)
     }
 }
@@ -150,7 +150,7 @@ const MAX_EVALUATIONS: usize = 100;
 /// 2 s instead of every second, at half the cost, which the noise terms'
 /// estimates hardly feel (their information comes from hundreds of
 /// thousands of seconds of rest).
-const DECIMATION: usize = 2;
+pub(super) const DECIMATION: usize = 2;
 
 /// How far below its start a white density may go (natural log).
 const WHITE_FLOOR_LN: f64 = -9.2;
@@ -160,7 +160,7 @@ const VANISH_LN: f64 = -4.6;
 
 /// The fall of ln L without a wander term above which the term is kept:
 /// half the 98 % point of χ²₁ (5.41), the 1 % level of the boundary test.
-const KEEP_WANDER_LN_L: f64 = 2.71;
+pub(super) const KEEP_WANDER_LN_L: f64 = 2.71;
 
 /// The rise of ln L over the still model above which `k` wander terms
 /// together are kept: the 1 % level of the boundary test for k terms at

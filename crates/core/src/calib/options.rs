@@ -52,6 +52,14 @@ pub struct EstimateOptions {
     /// observations (`noise_fit`) and calibrate again under the fitted
     /// model.
     pub fit_noise: bool,
+    /// Also fit the noise of a run whose dwells showed white noise alone
+    /// when its innovations ask for wander (`noise_fit::unseen_wander`).
+    /// Off by default: a missing effect asks for wander too (a delay, a
+    /// lever arm, a g-sensitivity were all absorbed by it, and the
+    /// discrepancy workflow then named none), so the default keeps the
+    /// check failing and says what wander would explain; a line turns
+    /// it on for a unit whose misfit the workflow found no effect for.
+    pub fit_unseen_wander: bool,
     /// Prior 1-σ of each parameter family as a multiple of the grade's
     /// typical magnitude (the seed paper's for navigation units).
     pub prior_scale: f64,
@@ -84,6 +92,7 @@ impl Default for EstimateOptions {
             noise: None,
             noise_reference: None,
             fit_noise: true,
+            fit_unseen_wander: false,
             prior_scale: 4.0,
             grade: None,
             cross_check: true,

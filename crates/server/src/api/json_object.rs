@@ -4,7 +4,8 @@
 //! as "every default" and run. The body is read as an object first, then
 //! into its type; anything else is refused as 422.
 
-use axum::extract::{FromRequest, Request};
+use axum::extract::{FromRequest, OptionalFromRequest, Request};
+use axum::http::header::{CONTENT_LENGTH, CONTENT_TYPE, TRANSFER_ENCODING};
 use axum::Json;
 use serde::de::DeserializeOwned;
 use serde_json::{Map, Value};
@@ -22,7 +23,7 @@ where
     type Rejection = ApiError;
 
     async fn from_request(req: Request, state: &S) -> Result<Self, ApiError> {
-        let Json(object) = Json::<Value>::from_request(req, state).await?;
+        let Json(object) = <Json<Value> as FromRequest<S>>::from_request(req, state).await?;
         match object {
             Value::Object(fields) => into_type(fields).map(JsonObject),
             other => Err(ApiError::Unprocessable(format!(
@@ -30,6 +31,29 @@ where
                 kind_of(&other)
             ))),
         }
+    }
+}
+
+/// A body that may be left out: none at all (no content type, no length
+/// or a length of 0) is `None`; anything else is read as above.
+impl<T, S> OptionalFromRequest<S> for JsonObject<T>
+where
+    T: DeserializeOwned,
+    S: Send + Sync,
+{
+    type Rejection = ApiError;
+
+    async fn from_request(req: Request, state: &S) -> Result<Option<Self>, ApiError> {
+        let headers = req.headers();
+        let sent = headers.contains_key(CONTENT_TYPE)
+            || headers.contains_key(TRANSFER_ENCODING)
+            || headers.get(CONTENT_LENGTH).is_some_and(|n| n != "0");
+        if !sent {
+            return Ok(None);
+        }
+        <Self as FromRequest<S>>::from_request(req, state)
+            .await
+            .map(Some)
     }
 }
 

@@ -9,11 +9,12 @@ use axum::http::{header, HeaderValue, StatusCode};
 use axum::response::{IntoResponse, Response};
 use axum::routing::{get, post};
 use axum::{Json, Router};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::auth::{roles, Auth, Caller};
 use super::error::ApiError;
 use super::jobs::JobView;
+use super::json_object::JsonObject;
 use super::upload::queue_full;
 use super::{parse_id, refuse_while_stopping, rfc3339, AppState};
 
@@ -272,15 +273,29 @@ async fn diagnose_run(
     Ok(job_answer(status, queued.job))
 }
 
+/// What a request to calibrate a run again may change (the body may be
+/// left out).
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrateAgain {
+    /// Fit a bias wander the run's dwells do not show
+    /// (`EstimateOptions::fit_unseen_wander`), kept for the run's later
+    /// calibrations; absent: as before.
+    #[serde(default)]
+    fit_unseen_wander: Option<bool>,
+}
+
 /// Queues the run's calibration again (202), replacing its result when it
 /// has one; 409 while its calibration is queued or running.
 async fn recalibrate_run(
     State(st): State<AppState>,
     _: Caller<roles::Engineer>,
     path: Result<Path<String>, PathRejection>,
+    body: Option<JsonObject<CalibrateAgain>>,
 ) -> Result<Response, ApiError> {
     let id: RunId = parse_id(path?.0, "run")?;
-    let job = queue_recalibration(&st, id).await?;
+    let again = body.map(|b| b.0).unwrap_or_default();
+    let job = queue_recalibration(&st, id, again.fit_unseen_wander).await?;
     Ok(job_answer(StatusCode::ACCEPTED, job))
 }
 
@@ -317,12 +332,22 @@ pub(crate) async fn queue_diagnosis(st: &AppState, id: RunId) -> Result<QueuedJo
     }
 }
 
-/// Queues a run's calibration again.
-pub(crate) async fn queue_recalibration(st: &AppState, id: RunId) -> Result<JobRow, ApiError> {
+/// Queues a run's calibration again, with the fit of unseen wander
+/// changed when `fit_unseen_wander` says so.
+pub(crate) async fn queue_recalibration(
+    st: &AppState,
+    id: RunId,
+    fit_unseen_wander: Option<bool>,
+) -> Result<JobRow, ApiError> {
     refuse_while_stopping(st)?;
     let requeued = st
         .store
-        .requeue_calibration(id, st.config.max_attempts, st.config.max_queue)
+        .requeue_calibration(
+            id,
+            fit_unseen_wander,
+            st.config.max_attempts,
+            st.config.max_queue,
+        )
         .await?;
     let job = calibration_queued(st, id, requeued)?;
     tracing::info!(run = %id, job = %job.id, "calibration queued again");

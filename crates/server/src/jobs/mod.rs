@@ -304,7 +304,8 @@ impl JobRunner {
     }
 
     /// The estimator's options for a claimed job: the server's, carrying
-    /// the run's own model (adopted, or its product type's) when it has one.
+    /// the run's own model (adopted, or its product type's) when it has one
+    /// and the fit of unseen wander when an engineer asked for it.
     fn estimate_options(&self, run: &RunClaim) -> Result<EstimateOptions, String> {
         let mut estimate = self.settings.estimate.clone();
         if let Some(model) = &run.model {
@@ -312,6 +313,7 @@ impl JobRunner {
                 .parse()
                 .map_err(|e| format!("the run's stored model: {e}"))?;
         }
+        estimate.fit_unseen_wander = run.fit_unseen_wander;
         Ok(estimate)
     }
 

@@ -260,13 +260,20 @@ impl Store {
     /// in one transaction with superseding the result it replaces. The
     /// attempt counter keeps counting, since it fences the job's leases: a
     /// worker of an earlier attempt can never write the new result.
+    /// `fit_unseen_wander`, when given, is kept on the run for this and
+    /// later calibrations (`EstimateOptions::fit_unseen_wander`).
     pub async fn requeue_calibration(
         &self,
         run_id: RunId,
+        fit_unseen_wander: Option<bool>,
         max_attempts: i64,
         max_queue: i64,
     ) -> Result<CalibrationRequeued, StoreError> {
-        self.requeue_with(run_id, None, (max_attempts, max_queue))
+        let change = RunChange {
+            adoption: None,
+            fit_unseen_wander,
+        };
+        self.requeue_with(run_id, change, (max_attempts, max_queue))
             .await
     }
 
@@ -281,14 +288,18 @@ impl Store {
         max_attempts: i64,
         max_queue: i64,
     ) -> Result<CalibrationRequeued, StoreError> {
-        self.requeue_with(run_id, Some(adoption), (max_attempts, max_queue))
+        let change = RunChange {
+            adoption: Some(adoption),
+            fit_unseen_wander: None,
+        };
+        self.requeue_with(run_id, change, (max_attempts, max_queue))
             .await
     }
 
     async fn requeue_with(
         &self,
         run_id: RunId,
-        adoption: Option<Adoption<'_>>,
+        change: RunChange<'_>,
         (max_attempts, max_queue): (i64, i64),
     ) -> Result<CalibrationRequeued, StoreError> {
         let now = now_ms();
@@ -314,8 +325,18 @@ impl Store {
                 .fetch_one(&mut *tx)
                 .await?;
         lock_key(self.backend, &mut tx, &unit_key(&serial)).await?;
-        if let Some(a) = adoption {
+        if let Some(a) = change.adoption {
             record_adoption(&mut tx, run_id, a, now).await?;
+        }
+        if let Some(fit) = change.fit_unseen_wander {
+            // Literals, which both dialects read as their boolean.
+            let value = if fit { "TRUE" } else { "FALSE" };
+            sqlx::query(&format!(
+                "UPDATE runs SET fit_unseen_wander = {value} WHERE id = $1"
+            ))
+            .bind(run_id)
+            .execute(&mut *tx)
+            .await?;
         }
         supersede_current(&mut tx, run_id, now).await?;
         let job = sqlx::query_as(
@@ -335,6 +356,12 @@ impl Store {
         tx.commit().await?;
         Ok(CalibrationRequeued::Queued(job))
     }
+}
+
+/// What asking for a run's calibration again changes on the run first.
+struct RunChange<'a> {
+    adoption: Option<Adoption<'a>>,
+    fit_unseen_wander: Option<bool>,
 }
 
 async fn record_adoption(

@@ -66,6 +66,10 @@ pub struct RunClaim {
     /// else its product type's (`None`: the server's). As stored, parsed
     /// by the worker, so that a value it refuses fails this job alone.
     pub model: Option<String>,
+    /// Fit a bias wander the run's dwells do not show, as an engineer
+    /// asked (`EstimateOptions::fit_unseen_wander`).
+    #[sqlx(try_from = "Flag")]
+    pub fit_unseen_wander: bool,
 }
 
 /// What storing a result sets going when its model check fails.
@@ -193,7 +197,7 @@ impl Store {
             (_, Some(run_id)) => Subject::Run(
                 sqlx::query_as(
                     "SELECT r.id AS run_id, r.unit_serial, r.run_time, r.blob_path, r.metadata,
-                            COALESCE(r.model, p.model) AS model
+                            COALESCE(r.model, p.model) AS model, r.fit_unseen_wander
                      FROM runs r LEFT JOIN product_types p ON p.name = r.product
                      WHERE r.id = $1",
                 )

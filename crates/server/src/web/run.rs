@@ -456,7 +456,7 @@ pub async fn action(
             adopt_latest_diagnosis(&st, run.id, &session.auth.token_id).await?;
         }
         RunAction::Calibrate => {
-            queue_recalibration(&st, run.id).await?;
+            queue_recalibration(&st, run.id, None).await?;
         }
         RunAction::Delete => {
             remove_run(&st, run.id).await?;
