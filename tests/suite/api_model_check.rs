@@ -116,11 +116,12 @@ async fn a_clean_run_is_clear_and_the_option_can_turn_diagnosis_off() {
 }
 
 /// A unit whose bias walks (0.0003 deg/h/√h, 3 µg/√h) but whose dwells
-/// show white noise: its check fails and its result proposes the wander.
-/// An engineer asks for the calibration again with the wander fitted
-/// (`POST /runs/{id}/calibrate`, `{"fit_unseen_wander": true}`): the new
-/// result's noise model is fitted and its check is quiet. Bodies that are
-/// not that object are refused naming why.
+/// show white noise: its check fails and its result proposes the wander,
+/// on the run page too. The engineer's button calibrates again with the
+/// wander fitted: the new result's noise model is fitted, its check quiet,
+/// the proposal gone. Through the API, `{"fit_unseen_wander": false}`
+/// turns it off again; bodies that are not that object are refused naming
+/// why.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_run_calibrated_again_fits_the_wander_its_result_proposed() {
     let app = spawn_app_with(1, |c| c.diagnose_inadequate = false).await;
@@ -129,20 +130,44 @@ async fn a_run_calibrated_again_fits_the_wander_its_result_proposed() {
     cfg.noise.gyro_rrw_deg_h_rt_h = 0.0003;
     cfg.noise.accel_rw_ug_rt_h = 3.0;
     let run_id = upload_and_calibrate(&app, "RLG-MC3", &cfg).await;
-    let result = app.get_result(&run_id).await;
-    assert_eq!(result["model_check"]["adequate"], false);
-    assert_eq!(result["noise_model"]["source"], "measured");
-    let proposes = |r: &Value, text: &str| {
-        r["warnings"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .any(|w| w.as_str().unwrap().contains(text))
+    let white = |r: &Value| {
+        assert_eq!(r["model_check"]["adequate"], false, "{}", r["model_check"]);
+        assert_eq!(r["noise_model"]["source"], "measured");
+        assert_eq!(r["noise_model"]["unseen_wander"]["fitted"], false);
     };
-    assert!(
-        proposes(&result, "--fit-unseen-wander"),
+    white(&app.get_result(&run_id).await);
+    let page = app.sign_in(&app.admin).await;
+    let proposal = format!("/runs/{run_id}/fit-wander");
+    let html = page
+        .get(&format!("/runs/{run_id}"))
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(html.contains("unseen-wander") && html.contains(&proposal));
+
+    let r = page.post(&proposal, &[]).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let job = app.get_run(&run_id).await["job_id"].clone();
+    wait_succeeded(&app, &job).await;
+    let result = app.get_result(&run_id).await;
+    assert_eq!(result["noise_model"]["source"], "fitted");
+    assert_eq!(result["noise_model"]["unseen_wander"]["fitted"], true);
+    assert_eq!(
+        result["model_check"]["adequate"], true,
         "{}",
-        result["warnings"]
+        result["model_check"]
+    );
+    assert_eq!(app.get_run(&run_id).await["review"], "clear");
+    let html = page
+        .get(&format!("/runs/{run_id}"))
+        .await
+        .text()
+        .await
+        .unwrap();
+    assert!(
+        !html.contains(&proposal),
+        "the proposal is gone once fitted"
     );
 
     let calibrate = |body: &'static str, content_type: &'static str| {
@@ -184,25 +209,18 @@ async fn a_run_calibrated_again_fits_the_wander_its_result_proposed() {
             "{body}: {problem}"
         );
     }
-    let r = calibrate(r#"{"fit_unseen_wander": true}"#, "application/json").await;
+    let r = calibrate(r#"{"fit_unseen_wander": false}"#, "application/json").await;
     assert_eq!(r.status(), StatusCode::ACCEPTED);
     let job: Value = r.json().await.unwrap();
+    wait_succeeded(&app, &job["id"]).await;
+    white(&app.get_result(&run_id).await);
+    app.stop().await;
+}
+
+/// Waits for a job by id (a JSON string) and asserts it succeeded.
+async fn wait_succeeded(app: &TestApp, job: &Value) {
     let done = app
-        .wait_job(job["id"].as_str().unwrap(), Duration::from_secs(300))
+        .wait_job(job.as_str().unwrap(), Duration::from_secs(300))
         .await;
     assert_eq!(done["state"], "succeeded", "{done}");
-    let result = app.get_result(&run_id).await;
-    assert_eq!(result["noise_model"]["source"], "fitted");
-    assert_eq!(
-        result["model_check"]["adequate"], true,
-        "{}",
-        result["model_check"]
-    );
-    assert!(
-        proposes(&result, "fitted to the run, as asked"),
-        "{}",
-        result["warnings"]
-    );
-    assert_eq!(app.get_run(&run_id).await["review"], "clear");
-    app.stop().await;
 }

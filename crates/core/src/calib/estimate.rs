@@ -316,14 +316,13 @@ fn estimate_from(
     let mut source = noise_source(ctx);
     // A white model's last pass is kept too, for the screen below. (An
     // in-run thermal model is fitted over a pass of its own.)
-    let screened = source == NoiseSource::Measured && may_wander_unseen(ctx);
+    let screened = may_wander_unseen(ctx);
     let traced = (source == NoiseSource::Fitted || screened) && !opts.model.has(Effect::Thermal);
     let mut est = run_passes(ctx, head, budget, min_passes, traced, (lo, span), progress)?;
-    let unseen = if screened {
-        screen_unseen_wander(ctx, &est)?
-    } else {
-        None
-    };
+    let unseen = screened
+        .then(|| screen_unseen_wander(ctx, &est))
+        .transpose()?
+        .flatten();
     if unseen.is_some() && opts.fit_unseen_wander {
         source = NoiseSource::Fitted;
     } else if source != NoiseSource::Fitted {
@@ -418,6 +417,7 @@ fn estimate_from(
             model: ctx.noise.report(),
             fit_evaluations,
             reference,
+            unseen_wander: unseen.map(|u| u.report(source == NoiseSource::Fitted)),
         }),
         segments: scan.segments.clone(),
         gaps: scan.gaps.iter().map(|g| g.report()).collect(),

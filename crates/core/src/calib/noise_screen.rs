@@ -15,6 +15,7 @@ use super::kf_pass::effect_terms;
 use super::noise_fit::{FreeTerm, DECIMATION, KEEP_WANDER_LN_L};
 use super::passes::Estimate;
 use super::replay::PassTrace;
+use super::result::UnseenWanderReport;
 use super::run::EstimatorKind;
 use super::walk::PassContext;
 use crate::estimation::noise_model::NoiseModel;
@@ -34,6 +35,18 @@ pub(crate) struct UnseenWander {
 }
 
 impl UnseenWander {
+    /// What a result reports of it.
+    pub fn report(&self, fitted: bool) -> UnseenWanderReport {
+        let (_, unit) = self.term.typical(Grade::Navigation);
+        UnseenWanderReport {
+            term: self.term.name().to_string(),
+            size: self.size,
+            unit: unit.to_string(),
+            gain_ln_l: self.gain_ln_l,
+            fitted,
+        }
+    }
+
     /// What a result says of it.
     pub fn warning(&self, fitted: bool) -> String {
         let (_, unit) = self.term.typical(Grade::Navigation);

@@ -249,6 +249,26 @@ pub struct CalibrationNoise {
     /// still that model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference: Option<NoiseReferenceTest>,
+    /// Wander the run's innovations asked for that its dwells did not
+    /// show (a white model's screen, CONTRACT §2a).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub unseen_wander: Option<UnseenWanderReport>,
+}
+
+/// The wander term a white model's run asked for most, and what was done.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UnseenWanderReport {
+    /// The term as the result names it, e.g. "accelerometer bias random
+    /// walk".
+    pub term: String,
+    /// Its size where the screen found it, in `unit`.
+    pub size: f64,
+    pub unit: String,
+    /// The rise of ln L over the white model.
+    pub gain_ln_l: f64,
+    /// The noise model was then fitted, as asked
+    /// (`EstimateOptions::fit_unseen_wander`); false: the white one stands.
+    pub fitted: bool,
 }
 
 /// A likelihood-ratio test of the noise model held for a unit (its

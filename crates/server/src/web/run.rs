@@ -26,6 +26,7 @@ use crate::api::runs::{queue_diagnosis, queue_recalibration, remove_run};
 use crate::api::{parse_id, AppState};
 use crate::store::{JobRow, ResultVersion, RunId, RunRow, StoredVerdict};
 use sinscal_core::accept::{LimitKind, ParameterCheck, ProductLimits, Verdict, VerdictStatus};
+use sinscal_core::calib::result::UnseenWanderReport;
 use sinscal_core::calib::CalibrationResult;
 use sinscal_core::model::PARAMETERS;
 
@@ -125,6 +126,10 @@ pub async fn page(
                 a href={ "/runs/" (run.id) "/noise" } { "Noise analysis" }
                 (action_button(&session, &format!("/runs/{}/diagnose", run.id), "Diagnose", ""))
                 (action_button(&session, &format!("/runs/{}/calibrate", run.id), "Calibrate again", ""))
+                @if let Some(w) = result.as_ref().and_then(proposed_wander) {
+                    span.proposal #unseen-wander { "The run asks for " (w.term) " its dwells do not show (ln L +" (format!("{:.0}", w.gain_ln_l)) "); if the diagnosis names no effect:" }
+                    (action_button(&session, &format!("/runs/{}/fit-wander", run.id), "Calibrate again, fitting the wander", ""))
+                }
                 @if roles::ADMIN.contains(&session.role()) {
                     (action_button(&session, &format!("/runs/{}/delete", run.id), "Delete run", "danger"))
                 }
@@ -396,6 +401,13 @@ fn earlier_results(run_id: RunId, versions: &[ResultVersion]) -> Markup {
     }
 }
 
+/// The wander the current result proposes to fit (its white model
+/// stands, its run asked for wander), if any.
+fn proposed_wander(r: &CalibrationResult) -> Option<&UnseenWanderReport> {
+    let w = r.noise_model.as_ref()?.unseen_wander.as_ref()?;
+    (!w.fitted).then_some(w)
+}
+
 /// What the run page's buttons do, and who may.
 #[derive(Clone, Copy, Debug)]
 enum RunAction {
@@ -403,6 +415,9 @@ enum RunAction {
     /// Adopt the latest diagnosis: calibrate again with its named effects.
     Adopt,
     Calibrate,
+    /// Calibrate again fitting the wander the result proposed
+    /// (`fit_unseen_wander`, kept on the run).
+    FitWander,
     Delete,
 }
 
@@ -412,6 +427,7 @@ impl RunAction {
             "diagnose" => Some(RunAction::Diagnose),
             "adopt" => Some(RunAction::Adopt),
             "calibrate" => Some(RunAction::Calibrate),
+            "fit-wander" => Some(RunAction::FitWander),
             "delete" => Some(RunAction::Delete),
             _ => None,
         }
@@ -422,7 +438,10 @@ impl RunAction {
     /// the caller (the same check the extractors make).
     fn allowed(self, session: &PageCaller<roles::Follow>) -> Result<(), PageError> {
         match self {
-            RunAction::Diagnose | RunAction::Adopt | RunAction::Calibrate => {
+            RunAction::Diagnose
+            | RunAction::Adopt
+            | RunAction::Calibrate
+            | RunAction::FitWander => {
                 session.narrow::<roles::Engineer>()?;
             }
             RunAction::Delete => {
@@ -433,7 +452,7 @@ impl RunAction {
     }
 }
 
-/// `POST /runs/{id}/{diagnose|adopt|calibrate|delete}`: the button's action,
+/// `POST /runs/{id}/{diagnose|adopt|calibrate|fit-wander|delete}`: the button's action,
 /// through the API's own function, then back to the run (or, once
 /// deleted, to its unit). The action is named first (404 for any other
 /// name), then the form's CSRF token is checked, then the action's role.
@@ -457,6 +476,9 @@ pub async fn action(
         }
         RunAction::Calibrate => {
             queue_recalibration(&st, run.id, None).await?;
+        }
+        RunAction::FitWander => {
+            queue_recalibration(&st, run.id, Some(true)).await?;
         }
         RunAction::Delete => {
             remove_run(&st, run.id).await?;
