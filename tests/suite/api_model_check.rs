@@ -138,12 +138,7 @@ async fn a_run_calibrated_again_fits_the_wander_its_result_proposed() {
     white(&app.get_result(&run_id).await);
     let page = app.sign_in(&app.admin).await;
     let proposal = format!("/runs/{run_id}/fit-wander");
-    let html = page
-        .get(&format!("/runs/{run_id}"))
-        .await
-        .text()
-        .await
-        .unwrap();
+    let html = run_page(&page, &run_id).await;
     assert!(html.contains("unseen-wander") && html.contains(&proposal));
 
     let r = page.post(&proposal, &[]).await;
@@ -159,12 +154,7 @@ async fn a_run_calibrated_again_fits_the_wander_its_result_proposed() {
         result["model_check"]
     );
     assert_eq!(app.get_run(&run_id).await["review"], "clear");
-    let html = page
-        .get(&format!("/runs/{run_id}"))
-        .await
-        .text()
-        .await
-        .unwrap();
+    let html = run_page(&page, &run_id).await;
     assert!(
         !html.contains(&proposal),
         "the proposal is gone once fitted"
@@ -223,4 +213,13 @@ async fn wait_succeeded(app: &TestApp, job: &Value) {
         .wait_job(job.as_str().unwrap(), Duration::from_secs(300))
         .await;
     assert_eq!(done["state"], "succeeded", "{done}");
+}
+
+/// The run's page as the session sees it.
+async fn run_page(page: &pages::PageSession, run_id: &str) -> String {
+    page.get(&format!("/runs/{run_id}"))
+        .await
+        .text()
+        .await
+        .unwrap()
 }

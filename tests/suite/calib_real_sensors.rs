@@ -108,18 +108,7 @@ fn a_real_unit_gets_honest_sigma_and_a_quiet_check_under_its_own_noise_model() {
             "seed {seed}: accel quantum {q}"
         );
     }
-    let check = res.model_check.as_ref().unwrap();
-    assert!(check.adequate, "seed {seed}: {}", check.summary);
-    let z = z_scores(&cfg, &res);
-    let rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
-    // σ neither 50× too large (pulses read as white noise) nor too
-    // small (wander ignored): RMS err/σ over the 24 near 1, none
-    // beyond 4.5.
-    assert!(
-        (0.4..1.8).contains(&rms) && largest(&z) < 4.5,
-        "seed {seed}: RMS err/σ {rms:.2}, largest {:.2}, {z:.2?}",
-        largest(&z)
-    );
+    assert_adequate_and_honest(&cfg, &res);
 }
 
 /// The same unit under white noise alone (the estimator's model before
@@ -200,14 +189,22 @@ fn a_bias_walk_the_dwells_do_not_show_is_proposed_then_fitted_when_asked() {
         "{:?}",
         noise.model
     );
-    let check = res.model_check.as_ref().unwrap();
-    assert!(check.adequate, "{}", check.summary);
     assert_warns(&res, "fitted to the run, as asked");
-    let z = z_scores(&cfg, &res);
+    assert_adequate_and_honest(&cfg, &res);
+}
+
+/// The check is quiet and σ honest: neither 50× too large (pulses read
+/// as white noise) nor too small (wander ignored), RMS err/σ over the 24
+/// near 1, none beyond 4.5.
+fn assert_adequate_and_honest(cfg: &SimConfig, res: &CalibrationResult) {
+    let seed = cfg.seed;
+    let check = res.model_check.as_ref().unwrap();
+    assert!(check.adequate, "seed {seed}: {}", check.summary);
+    let z = z_scores(cfg, res);
     let rms = (z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64).sqrt();
     assert!(
         (0.4..1.8).contains(&rms) && largest(&z) < 4.5,
-        "RMS err/σ {rms:.2}, largest {:.2}, {z:.2?}",
+        "seed {seed}: RMS err/σ {rms:.2}, largest {:.2}, {z:.2?}",
         largest(&z)
     );
 }
