@@ -13,7 +13,7 @@ use super::error::CalibError;
 use super::kf_pass::{effect_terms, filter_pass, kf_pass, Pass};
 use super::noise_fit::{fit_noise, FreeTerm, NoiseFit};
 use super::noise_measure::measure_noise;
-use super::noise_screen::{may_wander_unseen, screen_unseen_wander};
+use super::noise_screen::{may_wander_unseen, settle_white_model};
 use super::options::EstimateOptions;
 use super::passes::{lsq_as_pass, run_passes, Estimate};
 use super::prescan::{first_dwell, scan_run};
@@ -319,15 +319,11 @@ fn estimate_from(
     let screened = may_wander_unseen(ctx);
     let traced = (source == NoiseSource::Fitted || screened) && !opts.model.has(Effect::Thermal);
     let mut est = run_passes(ctx, head, budget, min_passes, traced, (lo, span), progress)?;
-    let unseen = screened
-        .then(|| screen_unseen_wander(ctx, &est))
-        .transpose()?
-        .flatten();
-    if unseen.is_some() && opts.fit_unseen_wander {
-        source = NoiseSource::Fitted;
-    } else if source != NoiseSource::Fitted {
-        est.last.trace = None;
-    }
+    let unseen = if screened {
+        settle_white_model(ctx, &mut est, &mut source)?
+    } else {
+        None
+    };
     let fitted_ctx;
     let (ctx, est, fit) = if source == NoiseSource::Fitted {
         let range = (0.05 + 0.5 * share, 0.5 * share);
@@ -359,7 +355,7 @@ fn estimate_from(
     };
     findings
         .warnings
-        .extend(unseen.map(|u| u.warning(source == NoiseSource::Fitted)));
+        .extend(unseen.as_ref().map(|u| u.warning()));
     if let Some(fit) = &fit {
         findings.warnings.extend(fit.warnings(ctx.grade));
     } else if opts.noise_reference.is_some() {
@@ -417,7 +413,7 @@ fn estimate_from(
             model: ctx.noise.report(),
             fit_evaluations,
             reference,
-            unseen_wander: unseen.map(|u| u.report(source == NoiseSource::Fitted)),
+            unseen_wander: unseen,
         }),
         segments: scan.segments.clone(),
         gaps: scan.gaps.iter().map(|g| g.report()).collect(),

@@ -15,48 +15,46 @@ use super::kf_pass::effect_terms;
 use super::noise_fit::{FreeTerm, DECIMATION, KEEP_WANDER_LN_L};
 use super::passes::Estimate;
 use super::replay::PassTrace;
-use super::result::UnseenWanderReport;
+use super::result::{NoiseSource, UnseenWanderReport};
 use super::run::EstimatorKind;
 use super::walk::PassContext;
 use crate::estimation::noise_model::NoiseModel;
-use crate::model::Grade;
 
 /// The sizes, as factors on a typical unit's ([`FreeTerm::nominal`]), at
 /// which [`unseen_wander`] tries each wander term.
 const PROBE_FACTORS: [f64; 3] = [0.3, 1.0, 3.0];
 
 /// A wander term that raises the likelihood of a white model's pass: the
-/// term, its size in a datasheet's units and the rise of ln L.
+/// term, its size in a datasheet's units (`unit`) and the rise of ln L.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct UnseenWander {
     term: FreeTerm,
     size: f64,
+    unit: &'static str,
     gain_ln_l: f64,
 }
 
 impl UnseenWander {
-    /// What a result reports of it.
+    /// What a result reports of it, `fitted` or not.
     pub fn report(&self, fitted: bool) -> UnseenWanderReport {
-        let (_, unit) = self.term.typical(Grade::Navigation);
         UnseenWanderReport {
             term: self.term.name().to_string(),
             size: self.size,
-            unit: unit.to_string(),
+            unit: self.unit.to_string(),
             gain_ln_l: self.gain_ln_l,
             fitted,
         }
     }
+}
 
+impl UnseenWanderReport {
     /// What a result says of it.
-    pub fn warning(&self, fitted: bool) -> String {
-        let (_, unit) = self.term.typical(Grade::Navigation);
+    pub(crate) fn warning(&self) -> String {
         let what = format!(
-            "the run's innovations ask for wander its dwells do not show ({} of {:.2} {unit} raises ln L by {:.1})",
-            self.term.name(),
-            self.size,
-            self.gain_ln_l
+            "the run's innovations ask for wander its dwells do not show ({} of {:.2} {} raises ln L by {:.1})",
+            self.term, self.size, self.unit, self.gain_ln_l
         );
-        if fitted {
+        if self.fitted {
             format!("{what}: the noise model is fitted to the run, as asked; an effect missing from the model would be read as this wander")
         } else {
             format!("{what}: if the discrepancy workflow names no effect for the misfit, calibrate with the unseen wander fitted (`--fit-unseen-wander`)")
@@ -89,9 +87,11 @@ fn unseen_wander(
             *term.values(&mut m) = [factor * term.nominal(ctx.grade); 3];
             let gain_ln_l = replay.log_likelihood(filter(&m))? - still;
             if gain_ln_l > best.map_or(KEEP_WANDER_LN_L, |b| b.gain_ln_l) {
+                let (typical, unit) = term.typical(ctx.grade);
                 best = Some(UnseenWander {
                     term: *term,
-                    size: factor * term.typical(ctx.grade).0,
+                    size: factor * typical,
+                    unit,
                     gain_ln_l,
                 });
             }
@@ -100,9 +100,28 @@ fn unseen_wander(
     Ok(best)
 }
 
+/// A white model's passes screened (`screen_unseen_wander`; the source
+/// is measured, `may_wander_unseen`): `source` becomes fitted when the screen finds wander and its fit is asked for,
+/// else the pass's trace, kept only for the screen, is let go. What the
+/// screen found, as the result reports it.
+pub(super) fn settle_white_model(
+    ctx: &PassContext,
+    est: &mut Estimate,
+    source: &mut NoiseSource,
+) -> Result<Option<UnseenWanderReport>, CalibError> {
+    let unseen = screen_unseen_wander(ctx, est)?;
+    let fit = unseen.is_some() && ctx.opts.fit_unseen_wander;
+    if fit {
+        *source = NoiseSource::Fitted;
+    } else {
+        est.last.trace = None;
+    }
+    Ok(unseen.map(|u| u.report(fit)))
+}
+
 /// The wander a white model's last pass asks for (`unseen_wander`), when
 /// its check failed or a fit of it is asked for.
-pub(super) fn screen_unseen_wander(
+fn screen_unseen_wander(
     ctx: &PassContext,
     est: &Estimate,
 ) -> Result<Option<UnseenWander>, CalibError> {

@@ -53,7 +53,7 @@ pub struct EstimateOptions {
     /// model.
     pub fit_noise: bool,
     /// Also fit the noise of a run whose dwells showed white noise alone
-    /// when its innovations ask for wander (`noise_fit::unseen_wander`).
+    /// when its innovations ask for wander (`noise_screen`).
     /// Off by default: a missing effect asks for wander too (a delay, a
     /// lever arm, a g-sensitivity were all absorbed by it, and the
     /// discrepancy workflow then named none), so the default keeps the
