@@ -21,6 +21,7 @@ mod api_design;
 mod api_design_jobs;
 mod api_diagnose;
 mod api_faults;
+mod api_held_noise;
 mod api_jobs;
 mod api_model_check;
 mod api_noise;

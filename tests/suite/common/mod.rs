@@ -133,11 +133,19 @@ pub struct SimRun {
 /// The result of calibrating `run`'s file directly (default options, as a
 /// worker does), for comparing with what a server stored.
 pub fn calibrate_directly(run: &SimRun) -> sinscal_core::calib::CalibrationResult {
+    calibrate_directly_with(run, &sinscal_core::calib::EstimateOptions::default())
+}
+
+/// The same with `opts`.
+pub fn calibrate_directly_with(
+    run: &SimRun,
+    opts: &sinscal_core::calib::EstimateOptions,
+) -> sinscal_core::calib::CalibrationResult {
     let meta = sinscal_core::io::meta::RunMetadata::from_json(&run.metadata).unwrap();
     sinscal_core::pipeline::calibrate_file(
         &run.data,
         &meta,
-        &sinscal_core::calib::EstimateOptions::default(),
+        opts,
         &mut |_| {},
         &std::sync::atomic::AtomicBool::new(false),
     )

@@ -13,6 +13,7 @@ pub mod error;
 mod jobs;
 mod json_object;
 pub(crate) mod noise;
+pub(crate) mod noise_models;
 pub(crate) mod products;
 pub(crate) mod runs;
 mod schemes;
@@ -90,6 +91,7 @@ pub fn router(state: AppState, pages: Router<AppState>) -> Router {
         .merge(certificate::router())
         .merge(compensation::router())
         .merge(noise::router())
+        .merge(noise_models::router())
         .merge(jobs::router())
         .merge(units::router())
         .merge(thermal::router())

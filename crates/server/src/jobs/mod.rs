@@ -25,7 +25,9 @@ use crate::runstore::{LocalCopy, RunStore};
 use crate::store::{
     Claim, Fence, JobId, JobKind, JobState, OnInadequate, RunClaim, Store, StoreError, Subject,
 };
-use sinscal_core::calib::{CalibError, CalibrationResult, EstimateOptions, Progress};
+use sinscal_core::calib::{
+    parse_noise_terms, CalibError, CalibrationResult, EstimateOptions, HeldNoise, Progress,
+};
 use sinscal_core::diagnose::{DiagnoseError, DiagnoseOptions};
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::pipeline::{calibrate_file, diagnose_file};
@@ -304,8 +306,9 @@ impl JobRunner {
     }
 
     /// The estimator's options for a claimed job: the server's, carrying
-    /// the run's own model (adopted, or its product type's) when it has one
-    /// and the fit of unseen wander when an engineer asked for it.
+    /// the run's own model (adopted, or its product type's) when it has one,
+    /// the fit of unseen wander when an engineer asked for it, and the
+    /// noise model held for the unit where its use puts it.
     fn estimate_options(&self, run: &RunClaim) -> Result<EstimateOptions, String> {
         let mut estimate = self.settings.estimate.clone();
         if let Some(model) = &run.model {
@@ -314,6 +317,9 @@ impl JobRunner {
                 .map_err(|e| format!("the run's stored model: {e}"))?;
         }
         estimate.fit_unseen_wander = run.fit_unseen_wander;
+        if let Some(held) = held_noise(run)? {
+            held.apply_to(&mut estimate);
+        }
         Ok(estimate)
     }
 
@@ -461,6 +467,20 @@ impl JobRunner {
 }
 
 /// A blocking task's end that was no answer, in words.
+/// The noise model held for the claimed run's unit, checked again as when
+/// it was set.
+fn held_noise(run: &RunClaim) -> Result<Option<HeldNoise>, String> {
+    let (Some(noise), Some(used_as)) = (&run.held_noise, &run.held_noise_use) else {
+        return Ok(None);
+    };
+    let refused = |e: &dyn std::fmt::Display| format!("the unit's held noise model: {e}");
+    let value: serde_json::Value = serde_json::from_str(noise).map_err(|e| refused(&e))?;
+    Ok(Some(HeldNoise {
+        noise: parse_noise_terms(&value).map_err(|e| refused(&e))?,
+        used_as: used_as.parse().map_err(|e: String| refused(&e))?,
+    }))
+}
+
 fn panicked(join: &tokio::task::JoinError) -> String {
     if join.is_panic() {
         "the estimator panicked".into()

@@ -30,6 +30,8 @@
 //! - `verdicts`: each result's verdict (`accept::judge`) kept up to date
 //!   in its row and the unit's (on any connection: a leaf but for
 //!   `spread`, `error`);
+//! - `noise_models`: the noise model held for a unit, which its runs'
+//!   calibration claims carry;
 //! - `products`: product types, their revisions, and the verdicts judged
 //!   again when one changes;
 //! - `certificates`: calibration certificates, one per approved result,
@@ -45,6 +47,7 @@ mod hints;
 mod ids;
 mod jobs;
 mod kinds;
+mod noise_models;
 mod products;
 mod queue;
 mod results;
@@ -65,6 +68,7 @@ pub use hints::JobHints;
 pub use ids::{JobId, RunId};
 pub use jobs::{Adoption, CalibrationRequeued, DiagnoseQueued, JobCounts, JobRow};
 pub use kinds::{JobKind, JobState, Role};
+pub use noise_models::HeldNoiseRow;
 pub use products::{ProductTypeChange, ProductTypeRow};
 pub use queue::{Claim, Fence, OnInadequate, RunClaim, Subject};
 pub use results::{HistoryRow, SpreadRun, ThermalRow, UnitFilter, UnitSpread, UnitSummary};

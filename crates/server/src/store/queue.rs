@@ -70,6 +70,10 @@ pub struct RunClaim {
     /// asked (`EstimateOptions::fit_unseen_wander`).
     #[sqlx(try_from = "Flag")]
     pub fit_unseen_wander: bool,
+    /// The noise model held for the unit (`unit_noise_models`), as
+    /// stored, with its use: parsed by the worker, as `model` is.
+    pub held_noise: Option<String>,
+    pub held_noise_use: Option<String>,
 }
 
 /// What storing a result sets going when its model check fails.
@@ -197,8 +201,10 @@ impl Store {
             (_, Some(run_id)) => Subject::Run(
                 sqlx::query_as(
                     "SELECT r.id AS run_id, r.unit_serial, r.run_time, r.blob_path, r.metadata,
-                            COALESCE(r.model, p.model) AS model, r.fit_unseen_wander
+                            COALESCE(r.model, p.model) AS model, r.fit_unseen_wander,
+                            n.noise AS held_noise, n.used_as AS held_noise_use
                      FROM runs r LEFT JOIN product_types p ON p.name = r.product
+                     LEFT JOIN unit_noise_models n ON n.unit_serial = r.unit_serial
                      WHERE r.id = $1",
                 )
                 .bind(run_id)

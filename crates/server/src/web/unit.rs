@@ -20,7 +20,7 @@ use crate::api::auth::roles;
 use crate::api::error::ApiError;
 use crate::api::thermal::{unit_thermal_model, ThermalQuery};
 use crate::api::AppState;
-use sinscal_core::calib::ParameterEstimate;
+use sinscal_core::calib::{HeldNoise, HeldNoiseUse, ParameterEstimate};
 use sinscal_core::io::UnitSerial;
 use sinscal_core::model::PARAMETERS;
 
@@ -83,6 +83,10 @@ pub async fn page(
         Err(ApiError::Conflict(_)) => None,
         Err(e) => return Err(e.into()),
     };
+    let held = match st.store.held_noise_model(&serial).await? {
+        Some(row) => Some((row.parsed()?, row.set_at)),
+        None => None,
+    };
     let all_columns = q.columns == "all";
     let verdict = unit.verdict()?.map(|v| v.status());
     let (word, class) = format::verdict(verdict);
@@ -92,6 +96,7 @@ pub async fn page(
             dt { "Product" } dd { (unit.product.as_deref().unwrap_or("none named")) }
             dt { "Runs" } dd { (unit.runs) " uploaded, " (unit.calibrated) " calibrated" }
             dt { "Verdict" } dd { span class={ "badge " (class) } { (word) } " (latest calibrated run)" }
+            dt { "Noise model" } dd #held-noise { (held_noise(held.as_ref())) }
             @if total > MAX_RUNS { dt { "Shown" } dd { "the first " (MAX_RUNS) " of " (total) " calibrated runs" } }
         }
         h2 { "Calibration history" }
@@ -184,4 +189,37 @@ fn compare(runs: &[UnitRun], a: &str, b: &str) -> Result<Markup, PageError> {
             }
         }
     })
+}
+
+/// The unit's held noise model in a line, or what its runs use instead.
+fn held_noise(held: Option<&(HeldNoise, i64)>) -> Markup {
+    let Some((held, set_at)) = held else {
+        return html! { "none held: each run's own is measured and fitted" };
+    };
+    let n = &held.noise;
+    let terms = [
+        ("gyro ARW", n.gyro_arw_deg_rt_h, "deg/√h"),
+        ("VRW", n.accel_vrw_ug_rt_hz, "µg/√Hz"),
+        ("gyro instability", n.gyro_bias_instability_deg_h, "deg/h"),
+        (
+            "accelerometer instability",
+            n.accel_bias_instability_ug,
+            "µg",
+        ),
+        ("gyro RRW", n.gyro_rrw_deg_h_rt_h, "deg/h/√h"),
+        ("accelerometer RW", n.accel_rw_ug_rt_h, "µg/√h"),
+        ("gyro quantum", n.gyro_quantum_arcsec, "″"),
+        ("accelerometer quantum", n.accel_quantum_mps, "m/s"),
+    ];
+    let used = match held.used_as {
+        HeldNoiseUse::Given => "given to each calibration",
+        HeldNoiseUse::Reference => "the reference each run's fitted model is tested against",
+    };
+    html! {
+        @for (k, (name, value, unit)) in terms.iter().filter(|t| t.1 > 0.0).enumerate() {
+            @if k > 0 { ", " }
+            (name) " " (format::sig(*value, 3)) " " (unit)
+        }
+        "; " (used) " (set " (format::time(*set_at)) ")"
+    }
 }
