@@ -172,23 +172,19 @@ fn flagged(k: f64) -> Vec<(&'static str, usize, String)> {
     out
 }
 
-/// Flagged in at least two of the three seeds (1–3).
-#[test]
-fn every_effect_at_the_low_end_is_flagged_in_most_runs() {
-    for (name, hits, example) in flagged(1.0) {
-        assert!(hits >= 2, "{name}: flagged in {hits} of {EFFECT_SEEDS}");
-        assert!(example.contains("sinscal diagnose"), "{example}");
-    }
-}
-
-/// Flagged in each of the three seeds (1–3).
+/// Flagged in each of the three seeds (1–3), the summary pointing to the
+/// discrepancy workflow. The low end itself (flagged in 10 of 10 seeds
+/// each) is a rate over seeds, measured by the bench (`cargo bench
+/// --bench model_check`; docs/FIGURES.md): at three seeds a test of it
+/// only repeated this one's runs at half the size.
 #[test]
 fn every_effect_at_twice_the_low_end_is_flagged_in_every_run() {
-    for (name, hits, _) in flagged(2.0) {
+    for (name, hits, example) in flagged(2.0) {
         assert_eq!(
             hits, EFFECT_SEEDS as usize,
             "{name}: flagged in {hits} of {EFFECT_SEEDS}"
         );
+        assert!(example.contains("sinscal diagnose"), "{example}");
     }
 }
 
