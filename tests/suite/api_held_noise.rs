@@ -34,12 +34,13 @@ fn characterisation() -> Value {
 }
 
 /// A unit whose bias walks (0.0003 deg/h/√h, 3 µg/√h) under dwells that
-/// show only white noise (the screen's case, `api_model_check`). With its characterisation held as
-/// given, the server's result is the core's under that model, exactly:
-/// source `given`, the held terms, a quiet check. Held as the reference,
-/// the run's own model is used and the result says the held one was not
-/// tested (a white run is measured, not fitted). Let go, the unit's runs
-/// measure their own again.
+/// show only white noise (the screen's case, `api_model_check`). With its
+/// characterisation held as given (API), the server's result is the
+/// core's under that model, to the digits JSON keeps: source `given`, a
+/// quiet check; the unit page shows it. Held as the reference (the page's
+/// form), the run's own model is used and the result says the held one
+/// was not tested (a white run is measured, not fitted). Let go (the
+/// page's button), the unit's runs measure their own again.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_units_held_noise_model_is_carried_by_its_calibrations_as_its_use_says() {
     let app = spawn_app(1).await;
@@ -111,14 +112,29 @@ async fn a_units_held_noise_model_is_carried_by_its_calibrations_as_its_use_says
             .collect::<String>()
     );
 
-    let r = put_held(
-        &app,
-        &engineer,
-        SERIAL,
-        json!({"noise": characterisation(), "used_as": "reference"}),
-    )
-    .await;
-    assert_eq!(r.status(), StatusCode::OK);
+    // The page's form holds it as the reference: refused first for text
+    // that is not JSON, a term it does not know, and a missing CSRF token.
+    let hold = format!("/units/{SERIAL}/noise-model");
+    let terms = characterisation().to_string();
+    let form = |noise: &'static str| [("noise", noise), ("used_as", "reference")];
+    assert_eq!(page.post(&hold, &form("{ARW: 3}")).await.status(), 400);
+    let r = page
+        .post(
+            &hold,
+            &form(r#"{"gyro_arw_deg_rt_h": 3, "accel_vrw_ug_rt_hz": 5, "arw": 1}"#),
+        )
+        .await;
+    assert_eq!(r.status(), StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(r.text().await.unwrap().contains("noise.arw"));
+    let forged = [("noise", terms.as_str()), ("used_as", "reference")];
+    assert_eq!(page.post_exactly(&hold, &forged).await.status(), 403);
+    let r = page.post(&hold, &forged).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
+    let read = app.get_json(&hold).await;
+    assert_eq!(
+        (&read["used_as"], &read["noise"]),
+        (&json!("reference"), &held["noise"])
+    );
     let result = calibrate_again(&app, &run_id).await;
     assert_eq!(result["noise_model"]["source"], "measured");
     let warnings = result["warnings"].to_string();
@@ -127,18 +143,19 @@ async fn a_units_held_noise_model_is_carried_by_its_calibrations_as_its_use_says
         "{warnings}"
     );
 
-    let delete = |token: String| {
-        let req = app
-            .http
-            .delete(app.url(&format!("/units/{SERIAL}/noise-model")))
-            .bearer_auth(token);
-        async move { req.send().await.unwrap().status() }
-    };
-    assert_eq!(delete(engineer.clone()).await, StatusCode::NO_CONTENT);
-    assert_eq!(delete(engineer.clone()).await, StatusCode::NOT_FOUND);
+    // Let go by the page's button; through the API there is then nothing
+    // to delete.
+    let r = page.post(&format!("{hold}/release"), &[]).await;
+    assert_eq!(r.status(), StatusCode::SEE_OTHER);
     let r = app
-        .get(&engineer, &format!("/units/{SERIAL}/noise-model"))
-        .await;
+        .http
+        .delete(app.url(&hold))
+        .bearer_auth(engineer.clone())
+        .send()
+        .await
+        .unwrap();
+    assert_eq!(r.status(), StatusCode::NOT_FOUND);
+    let r = app.get(&engineer, &hold).await;
     assert_eq!(r.status(), StatusCode::NOT_FOUND);
     let result = calibrate_again(&app, &run_id).await;
     assert_eq!(result["noise_model"]["source"], "measured");

@@ -15,10 +15,10 @@ use serde::{Deserialize, Serialize};
 use super::auth::{roles, Caller};
 use super::error::ApiError;
 use super::json_object::JsonObject;
+use super::units::serial_of;
 use super::{rfc3339, AppState};
 use crate::store::HeldNoiseRow;
 use sinscal_core::calib::{parse_noise_terms, HeldNoise, HeldNoiseUse, NoiseDensity};
-use sinscal_core::io::UnitSerial;
 
 pub fn router() -> Router<AppState> {
     Router::new().route(
@@ -61,10 +61,6 @@ impl TryFrom<HeldNoiseRow> for HeldNoiseView {
             set_at: rfc3339(row.set_at),
         })
     }
-}
-
-fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<UnitSerial, ApiError> {
-    path?.0.parse().map_err(ApiError::BadRequest)
 }
 
 /// A body's terms checked; a refusal is a 422 naming `noise.<term>`.

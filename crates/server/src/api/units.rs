@@ -231,7 +231,7 @@ pub fn router() -> Router<AppState> {
 }
 
 /// The unit serial of a path; a malformed one is a 400 naming the rule.
-fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<UnitSerial, ApiError> {
+pub(crate) fn serial_of(path: Result<Path<String>, PathRejection>) -> Result<UnitSerial, ApiError> {
     path?.0.parse().map_err(ApiError::BadRequest)
 }
 

@@ -28,6 +28,7 @@ mod run_verdict;
 mod session;
 mod signin;
 mod unit;
+mod unit_noise;
 mod unit_tables;
 mod unit_thermal;
 mod units;
@@ -62,6 +63,11 @@ pub fn router(max_body_bytes: u64) -> Router<AppState> {
         .route("/signin", get(signin::signin_page).post(signin::sign_in))
         .route("/signout", post(signin::sign_out))
         .route("/units/{serial}", get(unit::page))
+        .route("/units/{serial}/noise-model", post(unit_noise::hold))
+        .route(
+            "/units/{serial}/noise-model/release",
+            post(unit_noise::release),
+        )
         .route("/runs/{id}", get(run::page))
         .route("/runs/{id}/progress", get(run::progress))
         .route("/runs/{id}/files/{name}", get(run::download))

@@ -14,13 +14,14 @@ use super::access::PageCaller;
 use super::error::PageError;
 use super::format;
 use super::layout;
+use super::unit_noise;
 use super::unit_tables::{repeatability_table, trend_charts, UnitRun};
 use super::unit_thermal::thermal_section;
 use crate::api::auth::roles;
 use crate::api::error::ApiError;
 use crate::api::thermal::{unit_thermal_model, ThermalQuery};
 use crate::api::AppState;
-use sinscal_core::calib::{HeldNoise, HeldNoiseUse, ParameterEstimate};
+use sinscal_core::calib::ParameterEstimate;
 use sinscal_core::io::UnitSerial;
 use sinscal_core::model::PARAMETERS;
 
@@ -96,7 +97,6 @@ pub async fn page(
             dt { "Product" } dd { (unit.product.as_deref().unwrap_or("none named")) }
             dt { "Runs" } dd { (unit.runs) " uploaded, " (unit.calibrated) " calibrated" }
             dt { "Verdict" } dd { span class={ "badge " (class) } { (word) } " (latest calibrated run)" }
-            dt { "Noise model" } dd #held-noise { (held_noise(held.as_ref())) }
             @if total > MAX_RUNS { dt { "Shown" } dd { "the first " (MAX_RUNS) " of " (total) " calibrated runs" } }
         }
         h2 { "Calibration history" }
@@ -113,6 +113,7 @@ pub async fn page(
             h2 { "Thermal model" }
             (thermal_section(model, soaks))
         }
+        (unit_noise::section(&session, &serial, held.as_ref()))
     };
     Ok(Html(
         layout::page(&format!("Unit {serial}"), Some(&session), body).into_string(),
@@ -189,37 +190,4 @@ fn compare(runs: &[UnitRun], a: &str, b: &str) -> Result<Markup, PageError> {
             }
         }
     })
-}
-
-/// The unit's held noise model in a line, or what its runs use instead.
-fn held_noise(held: Option<&(HeldNoise, i64)>) -> Markup {
-    let Some((held, set_at)) = held else {
-        return html! { "none held: each run's own is measured and fitted" };
-    };
-    let n = &held.noise;
-    let terms = [
-        ("gyro ARW", n.gyro_arw_deg_rt_h, "deg/√h"),
-        ("VRW", n.accel_vrw_ug_rt_hz, "µg/√Hz"),
-        ("gyro instability", n.gyro_bias_instability_deg_h, "deg/h"),
-        (
-            "accelerometer instability",
-            n.accel_bias_instability_ug,
-            "µg",
-        ),
-        ("gyro RRW", n.gyro_rrw_deg_h_rt_h, "deg/h/√h"),
-        ("accelerometer RW", n.accel_rw_ug_rt_h, "µg/√h"),
-        ("gyro quantum", n.gyro_quantum_arcsec, "″"),
-        ("accelerometer quantum", n.accel_quantum_mps, "m/s"),
-    ];
-    let used = match held.used_as {
-        HeldNoiseUse::Given => "given to each calibration",
-        HeldNoiseUse::Reference => "the reference each run's fitted model is tested against",
-    };
-    html! {
-        @for (k, (name, value, unit)) in terms.iter().filter(|t| t.1 > 0.0).enumerate() {
-            @if k > 0 { ", " }
-            (name) " " (format::sig(*value, 3)) " " (unit)
-        }
-        "; " (used) " (set " (format::time(*set_at)) ")"
-    }
 }
