@@ -466,7 +466,6 @@ impl JobRunner {
     }
 }
 
-/// A blocking task's end that was no answer, in words.
 /// The noise model held for the claimed run's unit, checked again as when
 /// it was set.
 fn held_noise(run: &RunClaim) -> Result<Option<HeldNoise>, String> {
@@ -481,6 +480,7 @@ fn held_noise(run: &RunClaim) -> Result<Option<HeldNoise>, String> {
     }))
 }
 
+/// A blocking task's end that was no answer, in words.
 fn panicked(join: &tokio::task::JoinError) -> String {
     if join.is_panic() {
         "the estimator panicked".into()
