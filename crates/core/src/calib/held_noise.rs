@@ -134,6 +134,16 @@ pub struct HeldNoise {
 }
 
 impl HeldNoise {
+    /// A held model read back from its stored text (the terms' JSON and
+    /// the use's spelling), checked as when it was set.
+    pub fn from_stored(noise_json: &str, used_as: &str) -> Result<HeldNoise, String> {
+        let value: Value = serde_json::from_str(noise_json).map_err(|e| e.to_string())?;
+        Ok(HeldNoise {
+            noise: parse_noise_terms(&value).map_err(|e| e.to_string())?,
+            used_as: used_as.parse()?,
+        })
+    }
+
     /// The options a calibration of the unit runs with: the held model put
     /// where its use says, the other slot left as the options had it.
     pub fn apply_to(&self, opts: &mut EstimateOptions) {

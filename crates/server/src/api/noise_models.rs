@@ -19,6 +19,7 @@ use super::units::serial_of;
 use super::{rfc3339, AppState};
 use crate::store::HeldNoiseRow;
 use sinscal_core::calib::{parse_noise_terms, HeldNoise, HeldNoiseUse, NoiseDensity};
+use sinscal_core::io::UnitSerial;
 
 pub fn router() -> Router<AppState> {
     Router::new().route(
@@ -63,18 +64,23 @@ impl TryFrom<HeldNoiseRow> for HeldNoiseView {
     }
 }
 
-/// A body's terms checked; a refusal is a 422 naming `noise.<term>`.
-pub(crate) fn held_noise_of(
-    noise: &serde_json::Value,
-    used_as: HeldNoiseUse,
-) -> Result<HeldNoise, ApiError> {
+/// Holds `noise` (a body's or a form's terms, checked here; a refusal is
+/// a 422 naming `noise.<term>`) for the unit as `used_as`, set by the
+/// token `by`: the API's PUT and the unit page's form.
+pub(crate) async fn hold_for_unit(
+    st: &AppState,
+    serial: &UnitSerial,
+    (noise, used_as): (&serde_json::Value, HeldNoiseUse),
+    by: &str,
+) -> Result<HeldNoiseRow, ApiError> {
     let noise = parse_noise_terms(noise).map_err(|e| ApiError::InvalidField {
         field: e
             .term()
             .map_or_else(|| "noise".to_string(), |t| format!("noise.{t}")),
         message: e.to_string(),
     })?;
-    Ok(HeldNoise { noise, used_as })
+    let held = HeldNoise { noise, used_as };
+    Ok(st.store.hold_noise_model(serial, &held, by).await?)
 }
 
 async fn get_held(
@@ -99,11 +105,7 @@ async fn put_held(
     JsonObject(body): JsonObject<HeldNoiseBody>,
 ) -> Result<Json<HeldNoiseView>, ApiError> {
     let serial = serial_of(path)?;
-    let held = held_noise_of(&body.noise, body.used_as)?;
-    let row = st
-        .store
-        .hold_noise_model(&serial, &held, &caller.token_id)
-        .await?;
+    let row = hold_for_unit(&st, &serial, (&body.noise, body.used_as), &caller.token_id).await?;
     Ok(Json(row.try_into()?))
 }
 

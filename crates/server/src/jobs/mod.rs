@@ -25,9 +25,7 @@ use crate::runstore::{LocalCopy, RunStore};
 use crate::store::{
     Claim, Fence, JobId, JobKind, JobState, OnInadequate, RunClaim, Store, StoreError, Subject,
 };
-use sinscal_core::calib::{
-    parse_noise_terms, CalibError, CalibrationResult, EstimateOptions, HeldNoise, Progress,
-};
+use sinscal_core::calib::{CalibError, CalibrationResult, EstimateOptions, HeldNoise, Progress};
 use sinscal_core::diagnose::{DiagnoseError, DiagnoseOptions};
 use sinscal_core::io::meta::RunMetadata;
 use sinscal_core::pipeline::{calibrate_file, diagnose_file};
@@ -472,12 +470,9 @@ fn held_noise(run: &RunClaim) -> Result<Option<HeldNoise>, String> {
     let (Some(noise), Some(used_as)) = (&run.held_noise, &run.held_noise_use) else {
         return Ok(None);
     };
-    let refused = |e: &dyn std::fmt::Display| format!("the unit's held noise model: {e}");
-    let value: serde_json::Value = serde_json::from_str(noise).map_err(|e| refused(&e))?;
-    Ok(Some(HeldNoise {
-        noise: parse_noise_terms(&value).map_err(|e| refused(&e))?,
-        used_as: used_as.parse().map_err(|e: String| refused(&e))?,
-    }))
+    HeldNoise::from_stored(noise, used_as)
+        .map(Some)
+        .map_err(|e| format!("the unit's held noise model: {e}"))
 }
 
 /// A blocking task's end that was no answer, in words.

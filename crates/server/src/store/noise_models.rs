@@ -5,7 +5,8 @@ use sqlx::FromRow;
 
 use super::db::{now_ms, Store};
 use super::error::StoreError;
-use sinscal_core::calib::{HeldNoise, HeldNoiseUse, NoiseDensity};
+use super::runs::insert_unit;
+use sinscal_core::calib::{HeldNoise, HeldNoiseUse};
 use sinscal_core::io::serial::UnitSerial;
 
 /// A unit's held noise model as stored.
@@ -22,14 +23,10 @@ pub struct HeldNoiseRow {
 }
 
 impl HeldNoiseRow {
-    /// The held model, its terms read back.
+    /// The held model, its terms read back and checked again.
     pub fn parsed(&self) -> Result<HeldNoise, StoreError> {
-        let noise: NoiseDensity = serde_json::from_str(&self.noise).map_err(|e| {
+        HeldNoise::from_stored(&self.noise, self.used_as.as_str()).map_err(|e| {
             StoreError::Corrupt(format!("noise model of unit {}: {e}", self.unit_serial))
-        })?;
-        Ok(HeldNoise {
-            noise,
-            used_as: self.used_as,
         })
     }
 }
@@ -61,13 +58,7 @@ impl Store {
         let now = now_ms();
         let noise = serde_json::to_string(&held.noise)?;
         let mut tx = self.begin_write().await?;
-        sqlx::query(
-            "INSERT INTO units (serial, created_at) VALUES ($1, $2) ON CONFLICT DO NOTHING",
-        )
-        .bind(serial.as_str())
-        .bind(now)
-        .execute(&mut *tx)
-        .await?;
+        insert_unit(&mut tx, serial, now).await?;
         let row = sqlx::query_as(
             "INSERT INTO unit_noise_models (unit_serial, noise, used_as, set_by, set_at)
              VALUES ($1, $2, $3, $4, $5)

@@ -332,14 +332,25 @@ impl Store {
     }
 }
 
+/// The unit's row unless it exists, inside the caller's write
+/// transaction, created at `now` (ms).
+pub(super) async fn insert_unit(
+    tx: &mut WriteTx,
+    serial: &UnitSerial,
+    now: i64,
+) -> Result<(), StoreError> {
+    sqlx::query("INSERT INTO units (serial, created_at) VALUES ($1, $2) ON CONFLICT DO NOTHING")
+        .bind(serial.as_str())
+        .bind(now)
+        .execute(&mut **tx)
+        .await?;
+    Ok(())
+}
+
 /// The unit (if new) and the run's row, inside the caller's write
 /// transaction; a run's time is its recording time, else its upload time.
 pub(super) async fn insert_unit_and_run(tx: &mut WriteTx, new: &NewRun) -> Result<(), StoreError> {
-    sqlx::query("INSERT INTO units (serial, created_at) VALUES ($1, $2) ON CONFLICT DO NOTHING")
-        .bind(new.unit_serial.as_str())
-        .bind(new.uploaded_at)
-        .execute(&mut **tx)
-        .await?;
+    insert_unit(tx, &new.unit_serial, new.uploaded_at).await?;
     sqlx::query(
         "INSERT INTO runs (id, unit_serial, sha256, size_bytes, records, format, gzip, blob_path,
                            metadata, recorded_at, run_time, uploaded_at, uploaded_by, product)

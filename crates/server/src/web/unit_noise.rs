@@ -14,7 +14,7 @@ use super::format;
 use super::layout::action_button;
 use super::session::{see_other, CsrfForm, Session};
 use crate::api::auth::roles;
-use crate::api::noise_models::held_noise_of;
+use crate::api::noise_models::hold_for_unit;
 use crate::api::AppState;
 use sinscal_core::calib::{HeldNoise, HeldNoiseUse};
 use sinscal_core::io::UnitSerial;
@@ -105,10 +105,7 @@ pub async fn hold(
     let noise: serde_json::Value = serde_json::from_str(&form.noise)
         .map_err(|e| PageError::bad_request(format!("the terms are not JSON: {e}")))?;
     let used_as: HeldNoiseUse = form.used_as.parse().map_err(PageError::bad_request)?;
-    let held = held_noise_of(&noise, used_as)?;
-    st.store
-        .hold_noise_model(&serial, &held, &session.caller().token_id)
-        .await?;
+    hold_for_unit(&st, &serial, (&noise, used_as), &session.caller().token_id).await?;
     Ok(see_other(&format!("/units/{serial}#noise-model")))
 }
 
